@@ -1,0 +1,24 @@
+// Fusing aligned grids into one map in the reference map's frame.
+//
+// Rule: independent evidence adds in log-odds. Each known cell value v (percent) counts as
+// logit(clamp(v / 100, 0.02, 0.98)); the merged cell is the sum over all maps that know it,
+// turned back into percent. A cell no map knows stays unknown (-1). Two maps that disagree
+// hard (occupied 100 vs free 0) cancel to 50, which map_saver writes as unknown: an honest
+// "we do not know" rather than one map overriding the other.
+#pragma once
+
+#include <vector>
+
+#include "mrslam/grid.h"
+
+namespace mrslam::fusion {
+
+struct PlacedGrid {
+  const OccupancyGrid* grid;
+  Pose2D pose;  // pose of this grid's map frame in the reference map frame
+};
+
+// The merged grid at the reference's resolution and orientation, covering all inputs.
+OccupancyGrid mergeGrids(const OccupancyGrid& reference, const std::vector<PlacedGrid>& others);
+
+}  // namespace mrslam::fusion

@@ -1,0 +1,74 @@
+// The map fusion pipeline: finds the pose of map B's frame in map A's frame, or rejects.
+//
+// Paper stages (Saeedi et al. 2011, Fig. 1) and where they live:
+//   1 edge detection ........ ternary_image.h     5 cross-correlation ..... segment.h
+//   2 edge smoothing ........ edge_smoothing.h    6 approximate pose ...... approximate_pose.h
+//   3 random segment ........ segment.h           7 Radon rotation tuning . radon.h
+//   4 segment verification .. segment.h           8 similarity index ...... similarity_index.h
+//                                                 9 verification .......... verification.h
+// Our extensions, needed for any rotation, any map size and partial overlap (see README):
+//   - a coarse global search that adds hypotheses to the paper's segment pairs: rotation
+//     candidates from the Radon line-energy spectra of both maps (radon.h), and for each the
+//     best translations by Fourier-domain correlation (correlation_search.h);
+//   - every hypothesis is scored by the similarity index on a coarse pyramid level, and the
+//     best few are tuned level by level down to full resolution (Radon tuning once, then the
+//     similarity-index search of translation and a shrinking rotation step at every level);
+//   - verification adds wall agreement and a minimum shared wall length to V and entropy.
+#pragma once
+
+#include <string>
+
+#include "mrslam/fusion/cell_transform.h"
+#include "mrslam/fusion/segment_matching.h"
+#include "mrslam/fusion/verification.h"
+#include "mrslam/grid.h"
+
+namespace mrslam::fusion {
+
+struct FusionParams {
+  int occupied_threshold = 65;  // grid value >= this is an obstacle
+  int free_threshold = 25;      // 0 <= grid value <= this is free
+
+  bool use_segments = true;     // the paper's random-segment hypotheses
+  SegmentMatchingParams segments;
+  int segment_max_cells = 600;  // segments are drawn on the finest pyramid level within this size
+  unsigned seed = 1;            // random segments are seeded: runs are reproducible
+
+  int spectrum_max_cells = 400;   // pyramid level used for Radon spectra
+  double spectrum_step_deg = 1.0;
+  int rotation_candidates = 4;    // spectrum peaks; each is tried at alpha and alpha + 180 deg
+  int coarse_max_cells = 160;     // coarse pyramid level for the global search
+  int translation_peaks = 4;      // correlation peaks per rotation
+  double conflict_penalty = 1.0;  // weight of free/obstacle conflicts in the correlation
+
+  int coarse_search_radius = 2;   // similarity search around each global hypothesis (coarse cells)
+  int segment_search_radius = 10; // the paper's "ten cells" around a segment hypothesis
+  double coarse_rotation_step_deg = 1.0;
+  int refined_hypotheses = 3;     // best coarse hypotheses tuned down to full resolution
+  double radon_window_deg = 2.0;  // Radon tuning searches +- this around the hypothesis
+  double radon_step_deg = 0.1;
+  int refine_radius = 2;          // similarity search per finer level (cells of that level)
+  int max_free_points = 30000;    // free cells of B used per similarity evaluation
+
+  double max_resolution_ratio = 4.0;  // maps whose resolutions differ more are refused
+  VerificationParams verification;
+};
+
+struct FusionResult {
+  bool accepted = false;
+  Pose2D pose;           // pose of B's map frame in A's map frame (valid when accepted)
+  CellTransform cells;   // the same in A's cells (B resampled to A's resolution)
+  Verdict verdict;
+  int hypotheses = 0;    // hypotheses scored on the coarse level
+  double time_ms = 0;
+};
+
+// Why a grid cannot take part in fusion (empty string if it can): invalid structure, no
+// known cells, or no obstacle edges.
+std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params);
+
+// Throws std::invalid_argument for maps that fail checkFusable or whose resolutions are too
+// far apart. A rejected merge is not an error: accepted == false and verdict.reason says why.
+FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params);
+
+}  // namespace mrslam::fusion

@@ -1,0 +1,34 @@
+"""Counts JUnit XML results under a folder and prints 'N passed, N failed'.
+
+A build or runner failure (non-zero status) with no recorded failure still counts as one
+failure, so a broken build can never print a clean summary.
+"""
+import pathlib
+import sys
+import xml.etree.ElementTree as ET
+
+
+def main(results_dir: str, runner_status: int) -> int:
+    passed = failed = 0
+    for path in sorted(pathlib.Path(results_dir).rglob("*.xml")):
+        try:
+            root = ET.parse(path).getroot()
+        except ET.ParseError:
+            print(f"unreadable test result: {path}")
+            failed += 1
+            continue
+        for case in root.iter("testcase"):
+            if case.find("failure") is not None or case.find("error") is not None:
+                failed += 1
+                print(f"FAILED: {case.get('classname')}.{case.get('name')}")
+            elif case.find("skipped") is None and case.get("status", "run") != "notrun":
+                passed += 1
+    if runner_status != 0 and failed == 0:
+        print(f"test runner exited with status {runner_status}")
+        failed = 1
+    print(f"{passed} passed, {failed} failed")
+    return 0 if failed == 0 and passed > 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1], int(sys.argv[2])))

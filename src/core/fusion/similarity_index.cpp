@@ -1,0 +1,107 @@
+#include "mrslam/fusion/similarity_index.h"
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "mrslam/fusion/ternary_image.h"
+
+namespace mrslam::fusion {
+
+SimilarityIndex::SimilarityIndex(const cv::Mat& ternary_a, const cv::Mat& ternary_b,
+                                 int max_free_points) {
+  const cv::Mat kernel = cv::Mat::ones(3, 3, CV_8U);
+  cv::Mat occupied_a = ternary_a == kOccupiedCell, near_a;
+  cv::dilate(occupied_a, near_a, kernel);
+  lookup_a_ = ternary_a.clone();  // kUnknownCell/kFreeCell/kOccupiedCell equal our classes
+  lookup_a_.setTo(kNearOccupied, near_a & ~occupied_a);
+
+  cv::Mat occupied_b = ternary_b == kOccupiedCell, near_b;
+  cv::dilate(occupied_b, near_b, kernel);
+  size_t free_total = 0;
+  for (int r = 0; r < ternary_b.rows; ++r) {
+    const uint8_t* t = ternary_b.ptr<uint8_t>(r);
+    const uint8_t* n = near_b.ptr<uint8_t>(r);
+    for (int c = 0; c < ternary_b.cols; ++c) {
+      if (t[c] == kOccupiedCell) occupied_b_.emplace_back(c + 0.5f, r + 0.5f);
+      else if (t[c] == kFreeCell && !n[c]) ++free_total;
+    }
+  }
+  const size_t stride =
+      max_free_points > 0 ? std::max<size_t>(1, (free_total + max_free_points - 1) / max_free_points) : 1;
+  size_t k = 0;
+  for (int r = 0; r < ternary_b.rows; ++r) {
+    const uint8_t* t = ternary_b.ptr<uint8_t>(r);
+    const uint8_t* n = near_b.ptr<uint8_t>(r);
+    for (int c = 0; c < ternary_b.cols; ++c)
+      if (t[c] == kFreeCell && !n[c] && (k++ % stride) == 0) free_b_.emplace_back(c + 0.5f, r + 0.5f);
+  }
+  for (const auto& p : occupied_b_) center_b_ += cv::Point2d(p);
+  if (!occupied_b_.empty()) center_b_ /= static_cast<double>(occupied_b_.size());
+  free_weight_ = free_b_.empty() ? 0.0 : static_cast<double>(free_total) / free_b_.size();
+}
+
+void SimilarityIndex::accumulate(const std::vector<cv::Point2f>& points,
+                                 const CellTransform& transform, bool occupied, int radius,
+                                 std::vector<SimilarityCounts>& per_offset) const {
+  const int side = 2 * radius + 1;
+  const double c = std::cos(transform.theta), s = std::sin(transform.theta);
+  const int rows = lookup_a_.rows, cols = lookup_a_.cols;
+  // Per offset, counts of the classes of A met by the points: [unknown, free, occ, near].
+  std::vector<int64_t> hits(static_cast<size_t>(side) * side * 4, 0);
+  for (const auto& p : points) {
+    const int x0 = static_cast<int>(std::floor(c * p.x - s * p.y + transform.t.x)) - radius;
+    const int y0 = static_cast<int>(std::floor(s * p.x + c * p.y + transform.t.y)) - radius;
+    if (x0 + side <= 0 || y0 + side <= 0 || x0 >= cols || y0 >= rows) continue;
+    for (int dy = 0; dy < side; ++dy) {
+      const int y = y0 + dy;
+      if (y < 0 || y >= rows) continue;
+      const uint8_t* row = lookup_a_.ptr<uint8_t>(y);
+      int64_t* h = &hits[static_cast<size_t>(dy) * side * 4];
+      for (int dx = 0; dx < side; ++dx) {
+        const int x = x0 + dx;
+        if (x >= 0 && x < cols) ++h[dx * 4 + row[x]];
+      }
+    }
+  }
+  const double w = occupied ? 1.0 : free_weight_;
+  for (size_t i = 0; i < per_offset.size(); ++i) {
+    const int64_t* h = &hits[i * 4];
+    SimilarityCounts& out = per_offset[i];
+    if (occupied) {
+      out.occupied_agree += w * (h[kOccupied] + h[kNearOccupied]);
+      out.occupied_conflict += w * h[kFree];
+    } else {
+      out.free_agree += w * (h[kFree] + h[kNearOccupied]);
+      out.free_conflict += w * h[kOccupied];
+    }
+  }
+}
+
+SimilarityCounts SimilarityIndex::evaluate(const CellTransform& transform) const {
+  return search(transform, 0, 0.0, 0).counts;
+}
+
+SearchResult SimilarityIndex::search(const CellTransform& transform, int radius,
+                                     double rotation_step, int rotation_steps) const {
+  SearchResult best;
+  best.counts.occupied_conflict = 1e300;  // J = -inf until something is evaluated
+  const int side = 2 * radius + 1;
+  for (int k = -rotation_steps; k <= rotation_steps; ++k) {
+    CellTransform candidate{transform.theta + k * rotation_step, transform.t};
+    candidate.t += transform.apply(center_b_) - candidate.apply(center_b_);
+    std::vector<SimilarityCounts> per_offset(static_cast<size_t>(side) * side);
+    accumulate(occupied_b_, candidate, true, radius, per_offset);
+    accumulate(free_b_, candidate, false, radius, per_offset);
+    for (int dy = 0; dy < side; ++dy)
+      for (int dx = 0; dx < side; ++dx) {
+        const SimilarityCounts& counts = per_offset[static_cast<size_t>(dy) * side + dx];
+        if (counts.J() > best.counts.J()) {
+          best.counts = counts;
+          best.transform = {candidate.theta, candidate.t + cv::Point2d(dx - radius, dy - radius)};
+        }
+      }
+  }
+  return best;
+}
+
+}  // namespace mrslam::fusion

@@ -1,0 +1,192 @@
+#include "mrslam/map_io.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace mrslam {
+namespace {
+
+namespace fs = std::filesystem;
+
+[[noreturn]] void fail(const std::string& file, const std::string& what) {
+  throw MapIoError(file + ": " + what);
+}
+
+template <typename T>
+T readScalar(const YAML::Node& root, const char* key, const std::string& file) {
+  const YAML::Node node = root[key];
+  if (!node) fail(file, std::string("missing key '") + key + "'");
+  try {
+    return node.as<T>();
+  } catch (const YAML::Exception&) {
+    fail(file, std::string("key '") + key + "' has an invalid value");
+  }
+}
+
+template <typename T>
+T readScalarOr(const YAML::Node& root, const char* key, T fallback, const std::string& file) {
+  return root[key] ? readScalar<T>(root, key, file) : fallback;
+}
+
+// A binary PGM/PPM shorter than its header promises is reported as such (OpenCV would only
+// say it cannot read it, and print to stderr while doing so).
+void checkPnmSize(const std::string& path, const std::string& yaml_path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[2] = {0, 0};
+  in.read(magic, 2);
+  if (magic[0] != 'P' || (magic[1] != '5' && magic[1] != '6')) return;
+  long values[3];
+  for (long& v : values) {
+    in >> std::ws;
+    while (in.peek() == '#') in.ignore(1 << 20, '\n'), in >> std::ws;
+    if (!(in >> v) || v <= 0) fail(path, "malformed PGM header (image of " + yaml_path + ")");
+  }
+  in.get();  // the single whitespace after maxval
+  const long long expected = static_cast<long long>(values[0]) * values[1] * (magic[1] == '6' ? 3 : 1) *
+                             (values[2] > 255 ? 2 : 1);
+  const long long header = in.tellg();
+  const long long size = static_cast<long long>(fs::file_size(path));
+  if (size - header < expected)
+    fail(path, "image data truncated: header says " + std::to_string(values[0]) + " x " +
+                   std::to_string(values[1]) + " cells, file holds " + std::to_string(size - header) +
+                   " of " + std::to_string(expected) + " bytes (image of " + yaml_path + ")");
+}
+
+}  // namespace
+
+OccupancyGrid loadMap(const std::string& yaml_path) {
+  if (!fs::exists(yaml_path)) fail(yaml_path, "no such file");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(yaml_path);
+  } catch (const YAML::Exception& e) {
+    fail(yaml_path, std::string("malformed yaml: ") + e.what());
+  }
+  if (!root.IsMap()) fail(yaml_path, "malformed yaml: expected a mapping of map_server keys");
+
+  const auto image_name = readScalar<std::string>(root, "image", yaml_path);
+  const auto resolution = readScalar<double>(root, "resolution", yaml_path);
+  if (!(resolution > 0.0) || !std::isfinite(resolution))
+    fail(yaml_path, "resolution must be a positive finite number");
+  const YAML::Node origin = root["origin"];
+  if (!origin || !origin.IsSequence() || origin.size() != 3)
+    fail(yaml_path, "origin must be a list [x, y, yaw]");
+  Pose2D origin_pose;
+  try {
+    origin_pose = {origin[0].as<double>(), origin[1].as<double>(), origin[2].as<double>()};
+  } catch (const YAML::Exception&) {
+    fail(yaml_path, "origin must hold three numbers");
+  }
+  if (!std::isfinite(origin_pose.x) || !std::isfinite(origin_pose.y) ||
+      !std::isfinite(origin_pose.yaw))
+    fail(yaml_path, "origin must be finite");
+  const int negate = readScalarOr<int>(root, "negate", 0, yaml_path);
+  const double occ_th = readScalarOr<double>(root, "occupied_thresh", 0.65, yaml_path);
+  const double free_th = readScalarOr<double>(root, "free_thresh", 0.196, yaml_path);
+  if (!(free_th >= 0.0 && free_th < occ_th && occ_th <= 1.0))
+    fail(yaml_path, "thresholds must satisfy 0 <= free_thresh < occupied_thresh <= 1");
+  const auto mode = readScalarOr<std::string>(root, "mode", "trinary", yaml_path);
+  if (mode != "trinary" && mode != "scale" && mode != "raw")
+    fail(yaml_path, "mode must be trinary, scale or raw (got '" + mode + "')");
+
+  fs::path image_path(image_name);
+  if (image_path.is_relative()) image_path = fs::path(yaml_path).parent_path() / image_path;
+  if (!fs::exists(image_path)) fail(image_path.string(), "image named in " + yaml_path + " not found");
+  checkPnmSize(image_path.string(), yaml_path);
+  cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_UNCHANGED);
+  if (image.empty()) fail(image_path.string(), "unreadable image (image of " + yaml_path + ")");
+  if (image.depth() != CV_8U) fail(image_path.string(), "only 8-bit images are supported");
+
+  // map_server averages the colour channels; an alpha channel of 0 marks unknown (scale mode).
+  cv::Mat alpha;
+  if (image.channels() == 4) cv::extractChannel(image, alpha, 3);
+  if (image.channels() >= 3) {
+    cv::Mat bgr = image;
+    if (image.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
+    cv::Mat grey(bgr.size(), CV_8U);
+    for (int r = 0; r < bgr.rows; ++r)
+      for (int c = 0; c < bgr.cols; ++c) {
+        const auto& p = bgr.at<cv::Vec3b>(r, c);
+        grey.at<uint8_t>(r, c) = static_cast<uint8_t>((p[0] + p[1] + p[2]) / 3);
+      }
+    image = grey;
+  } else if (image.channels() == 2) {
+    cv::extractChannel(image, alpha, 1);
+    cv::extractChannel(image, image, 0);
+  }
+
+  OccupancyGrid grid;
+  grid.width = image.cols;
+  grid.height = image.rows;
+  grid.resolution = resolution;
+  grid.origin = origin_pose;
+  grid.data.resize(static_cast<size_t>(grid.width) * grid.height);
+  for (int r = 0; r < image.rows; ++r) {
+    const uint8_t* row = image.ptr<uint8_t>(r);
+    const int grid_row = grid.height - 1 - r;  // image row 0 is the top of the map
+    for (int c = 0; c < image.cols; ++c) {
+      int8_t& cell = grid.at(c, grid_row);
+      const int v = row[c];
+      if (mode == "raw") {
+        cell = v > 100 ? OccupancyGrid::kUnknown : static_cast<int8_t>(v);
+        continue;
+      }
+      if (mode == "scale" && !alpha.empty() && alpha.at<uint8_t>(r, c) == 0) {
+        cell = OccupancyGrid::kUnknown;
+        continue;
+      }
+      const double p = negate ? v / 255.0 : (255.0 - v) / 255.0;
+      if (p > occ_th) {
+        cell = 100;
+      } else if (p < free_th) {
+        cell = 0;
+      } else if (mode == "scale") {
+        cell = static_cast<int8_t>(std::lround(99.0 * (p - free_th) / (occ_th - free_th)));
+      } else {
+        cell = OccupancyGrid::kUnknown;
+      }
+    }
+  }
+  return grid;
+}
+
+void saveMap(const OccupancyGrid& grid, const std::string& yaml_path,
+             const std::string& image_extension) {
+  const std::string why = validateGrid(grid);
+  if (!why.empty()) fail(yaml_path, "refusing to write an invalid grid: " + why);
+  if (image_extension != ".pgm" && image_extension != ".png")
+    fail(yaml_path, "image extension must be .pgm or .png");
+
+  // map_saver's trinary rule: >= 65 occupied (0), <= 25 free (254), else unknown (205).
+  cv::Mat image(grid.height, grid.width, CV_8U);
+  for (int r = 0; r < grid.height; ++r) {
+    uint8_t* row = image.ptr<uint8_t>(grid.height - 1 - r);
+    for (int c = 0; c < grid.width; ++c) {
+      const int v = grid.at(c, r);
+      row[c] = v < 0 ? 205 : (v >= 65 ? 0 : (v <= 25 ? 254 : 205));
+    }
+  }
+  const fs::path yaml(yaml_path);
+  fs::path image_path = yaml;
+  image_path.replace_extension(image_extension);
+  try {
+    if (!cv::imwrite(image_path.string(), image)) fail(image_path.string(), "cannot write image");
+  } catch (const cv::Exception& e) {
+    fail(image_path.string(), std::string("cannot write image: ") + e.what());
+  }
+  std::ofstream out(yaml_path);
+  if (!out) fail(yaml_path, "cannot open for writing");
+  out.precision(17);
+  out << "image: " << image_path.filename().string() << "\n"
+      << "resolution: " << grid.resolution << "\n"
+      << "origin: [" << grid.origin.x << ", " << grid.origin.y << ", " << grid.origin.yaw << "]\n"
+      << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  if (!out) fail(yaml_path, "write failed");
+}
+
+}  // namespace mrslam

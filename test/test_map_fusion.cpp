@@ -1,0 +1,190 @@
+// End-to-end map fusion on real data with known transforms, and the CLI's contract.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "mrslam/bench/pair_maker.h"
+#include "mrslam/fusion/map_fusion.h"
+#include "mrslam/map_io.h"
+#include "test_data.h"
+
+namespace fs = std::filesystem;
+using namespace mrslam;
+using namespace mrslam::fusion;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Error of an estimated pose of B's frame in A's frame against the truth: yaw error, and the
+// displacement (in cells) of B's grid centre, which does not depend on where B's origin is.
+struct PoseError {
+  double yaw_deg, cells;
+};
+PoseError poseError(const OccupancyGrid& b, const Pose2D& estimate, const Pose2D& truth) {
+  double cx, cy, ex, ey, tx, ty;
+  b.origin.apply(b.width * b.resolution / 2, b.height * b.resolution / 2, cx, cy);
+  estimate.apply(cx, cy, ex, ey);
+  truth.apply(cx, cy, tx, ty);
+  return {std::abs(std::remainder(estimate.yaw - truth.yaw, 2 * M_PI)) / kDeg,
+          std::hypot(ex - tx, ey - ty) / b.resolution};
+}
+
+struct RunResult {
+  int status;
+  std::string output;
+};
+RunResult run(const std::string& args) {
+  const std::string cmd = std::string(MRSLAM_MERGE_BIN) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof(buf), pipe)) out.append(buf, n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+fs::path tempDir() {
+  fs::path dir = fs::temp_directory_path() / ("mrslam_fusion_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+}  // namespace
+
+TEST(MapFusion, AlignsTwoRealCropsUnderALargeRotation) {
+  const OccupancyGrid intel = loadMap(test::referenceMap("intel"));
+  const OccupancyGrid a = bench::cropGrid(intel, 0, 0, 520, 761);
+  const Pose2D truth{25.0, -18.0, 123.0 * kDeg};
+  const OccupancyGrid b = bench::reframeGrid(bench::cropGrid(intel, 300, 100, 514, 661), truth);
+  const FusionResult r = alignMaps(a, b, FusionParams{});
+  ASSERT_TRUE(r.accepted) << r.verdict.reason;
+  const PoseError e = poseError(b, r.pose, truth);
+  EXPECT_LE(e.yaw_deg, 1.0);
+  EXPECT_LE(e.cells, 2.0);
+  EXPECT_GT(r.verdict.acceptance, 0.9);
+}
+
+TEST(MapFusion, AlignsMapsOfTwoTimeWindowsOfARealLog) {
+  // Two "robots": scans 0-449 and 350-909 of the Intel log, the second in its own frame.
+  const auto scans = bench::readCarmenScans(test::dataPath("logs/carmen_corrected/intel-corrected.log.gz"));
+  ASSERT_EQ(scans.size(), 910u);
+  std::mt19937 rng(1);
+  bench::RaycastParams raycast;
+  const OccupancyGrid a = bench::raycastMap(scans, 0, 450, Pose2D{}, raycast, rng);
+  const Pose2D truth{-12.0, 31.0, -71.0 * kDeg};
+  const OccupancyGrid b = bench::raycastMap(scans, 350, 910, truth, raycast, rng);
+  const FusionResult r = alignMaps(a, b, FusionParams{});
+  ASSERT_TRUE(r.accepted) << r.verdict.reason;
+  const PoseError e = poseError(b, r.pose, truth);
+  EXPECT_LE(e.yaw_deg, 1.0);
+  EXPECT_LE(e.cells, 2.0);
+}
+
+TEST(MapFusion, ResamplesAMapOfCoarserResolution) {
+  const OccupancyGrid aces = loadMap(test::referenceMap("aces"));
+  const OccupancyGrid a = bench::cropGrid(aces, 0, 0, 800, 1178);
+  const Pose2D truth{-5.0, 7.5, 200.0 * kDeg};
+  OccupancyGrid b = bench::reframeGrid(bench::cropGrid(aces, 300, 0, 878, 1178), truth);
+  // Halve B's resolution (occupied wins), as a robot mapping at 0.10 m would deliver.
+  OccupancyGrid coarse;
+  coarse.resolution = 0.10, coarse.origin = b.origin, coarse.width = b.width / 2, coarse.height = b.height / 2;
+  coarse.data.assign(static_cast<size_t>(coarse.width) * coarse.height, -1);
+  for (int r = 0; r < coarse.height; ++r)
+    for (int c = 0; c < coarse.width; ++c)
+      for (int k = 0; k < 4; ++k) {
+        const int v = b.at(2 * c + k % 2, 2 * r + k / 2);
+        int8_t& out = coarse.at(c, r);
+        if (v >= 65 || (v >= 0 && out < 0)) out = static_cast<int8_t>(v);
+      }
+  const FusionResult r = alignMaps(a, coarse, FusionParams{});
+  ASSERT_TRUE(r.accepted) << r.verdict.reason;
+  const PoseError e = poseError(coarse, r.pose, truth);
+  EXPECT_LE(e.yaw_deg, 1.0);
+  EXPECT_LE(e.cells, 2.0);  // in 0.10 m cells of B
+}
+
+TEST(MapFusion, RejectsMapsOfDifferentBuildings) {
+  const OccupancyGrid intel = loadMap(test::referenceMap("intel"));
+  for (const char* other : {"aces", "freiburg-079", "freiburg-101"}) {
+    const FusionResult r = alignMaps(intel, loadMap(test::referenceMap(other)), FusionParams{});
+    EXPECT_FALSE(r.accepted) << other;
+    EXPECT_FALSE(r.verdict.reason.empty());
+  }
+}
+
+TEST(MapFusion, IsReproducible) {
+  const OccupancyGrid a = loadMap(test::robotMap("avz5floor_closed"));
+  const OccupancyGrid b = loadMap(test::robotMap("avz5floor_open"));
+  const FusionResult r1 = alignMaps(a, b, FusionParams{}), r2 = alignMaps(a, b, FusionParams{});
+  EXPECT_EQ(r1.accepted, r2.accepted);
+  EXPECT_DOUBLE_EQ(r1.pose.x, r2.pose.x);
+  EXPECT_DOUBLE_EQ(r1.pose.yaw, r2.pose.yaw);
+}
+
+TEST(MergeCli, JsonOutputAndMergedMapForARealPair) {
+  const fs::path dir = tempDir();
+  const OccupancyGrid intel = loadMap(test::referenceMap("intel"));
+  const Pose2D truth{-30.0, 12.0, 250.0 * kDeg};
+  saveMap(bench::cropGrid(intel, 0, 0, 500, 761), (dir / "a.yaml").string());
+  saveMap(bench::reframeGrid(bench::cropGrid(intel, 314, 0, 500, 761), truth), (dir / "b.yaml").string());
+  const RunResult r = run("--json -o " + (dir / "merged.yaml").string() + " " + (dir / "a.yaml").string() +
+                          " " + (dir / "b.yaml").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"accepted\": true"), std::string::npos) << r.output;
+  double x = 0, y = 0, yaw = 0;
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("\"x\""), "\"x\": %lf, \"y\": %lf, \"yaw\": %lf", &x, &y, &yaw), 3);
+  const OccupancyGrid b = loadMap((dir / "b.yaml").string());
+  const PoseError e = poseError(b, Pose2D{x, y, yaw}, truth);
+  EXPECT_LE(e.yaw_deg, 1.0);
+  EXPECT_LE(e.cells, 2.0);
+  const OccupancyGrid merged = loadMap((dir / "merged.yaml").string());
+  EXPECT_GE(merged.width, 780);  // covers both halves of the lab
+  EXPECT_GE(merged.height, 740);
+}
+
+TEST(MergeCli, RejectedMergeIsNotAnError) {
+  const RunResult r = run("--json " + test::referenceMap("intel") + " " + test::referenceMap("freiburg-079"));
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"accepted\": false"), std::string::npos) << r.output;
+}
+
+TEST(MergeCli, BadInputGivesOneLineNamingTheFileAndExitTwo) {
+  const fs::path dir = tempDir();
+  const std::string good = test::referenceMap("intel");
+  const std::string tail = "origin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  cv::imwrite((dir / "unknown.pgm").string(), cv::Mat(50, 50, CV_8U, cv::Scalar(205)));
+  cv::imwrite((dir / "free.pgm").string(), cv::Mat(50, 50, CV_8U, cv::Scalar(254)));
+  std::ofstream(dir / "all_unknown.yaml") << "image: unknown.pgm\nresolution: 0.05\n" << tail;
+  std::ofstream(dir / "no_edges.yaml") << "image: free.pgm\nresolution: 0.05\n" << tail;
+  std::ofstream(dir / "nan.yaml") << "image: free.pgm\nresolution: nan\n" << tail;
+  std::ofstream(dir / "negative.yaml") << "image: free.pgm\nresolution: -0.05\n" << tail;
+  std::ofstream(dir / "broken.yaml") << "image: free.pgm\n  resolution: [\n";
+  std::ofstream(dir / "short.pgm") << "P5\n400 400\n255\nabc";
+  std::ofstream(dir / "size_mismatch.yaml") << "image: short.pgm\nresolution: 0.05\n" << tail;
+  std::ofstream(dir / "bad.yaml") << "nonsense_key: 1\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {(dir / "missing.yaml").string(), "no such file"},
+      {(dir / "broken.yaml").string(), "malformed yaml"},
+      {(dir / "nan.yaml").string(), "resolution"},
+      {(dir / "negative.yaml").string(), "resolution"},
+      {(dir / "all_unknown.yaml").string(), "all unknown"},
+      {(dir / "no_edges.yaml").string(), "no obstacle edges"},
+      {(dir / "size_mismatch.yaml").string(), "short.pgm"},
+  };
+  for (const auto& [file, problem] : cases) {
+    const RunResult r = run(good + " " + file);
+    EXPECT_EQ(r.status, 2) << file << ": " << r.output;
+    EXPECT_NE(r.output.find(problem), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(fs::path(file).filename().string()), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  EXPECT_EQ(run(good).status, 2);
+  EXPECT_EQ(run("--config " + (dir / "bad.yaml").string() + " " + good + " " + good).status, 2);
+  EXPECT_NE(run("--config " + (dir / "bad.yaml").string() + " " + good + " " + good).output.find("nonsense_key"),
+            std::string::npos);
+}

@@ -1,0 +1,154 @@
+// Map I/O: map_server semantics (row order, origin, thresholds, negate, scale), round trips
+// and clear errors on bad files.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "mrslam/map_io.h"
+#include "test_data.h"
+
+namespace fs = std::filesystem;
+using namespace mrslam;
+
+namespace {
+
+fs::path tempDir() {
+  fs::path dir = fs::temp_directory_path() / ("mrslam_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+void writeText(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
+
+std::string loadError(const fs::path& yaml) {
+  try {
+    loadMap(yaml.string());
+  } catch (const MapIoError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(MapIo, ReadsReferenceMapWithMapServerRowOrderAndOrigin) {
+  const OccupancyGrid g = loadMap(test::referenceMap("intel"));
+  EXPECT_EQ(g.width, 814);
+  EXPECT_EQ(g.height, 761);
+  EXPECT_DOUBLE_EQ(g.resolution, 0.05);
+  EXPECT_NEAR(g.origin.x, -20.888508584176403, 1e-12);
+  EXPECT_NEAR(g.origin.y, -24.239226447458872, 1e-12);
+  // Image row 0 is the top of the map: it must land in the grid's last row.
+  const cv::Mat image = cv::imread(test::dataPath("maps/reference/intel.pgm"), cv::IMREAD_GRAYSCALE);
+  int checked = 0;
+  for (int c = 0; c < image.cols; ++c) {
+    const int v = image.at<uint8_t>(0, c);
+    const int8_t expected = v == 0 ? 100 : (v == 254 || v == 255 ? 0 : -1);
+    EXPECT_EQ(g.at(c, g.height - 1), expected);
+    const int bottom = image.at<uint8_t>(image.rows - 1, c);
+    EXPECT_EQ(g.at(c, 0), bottom == 0 ? 100 : (bottom >= 254 ? 0 : -1));
+    ++checked;
+  }
+  EXPECT_EQ(checked, 814);
+  size_t occupied = 0, free = 0;
+  for (int8_t v : g.data) occupied += v == 100, free += v == 0;
+  EXPECT_GT(occupied, 10000u);
+  EXPECT_GT(free, 100000u);
+}
+
+TEST(MapIo, ReadsRobotBuiltPngAndCoarseResolution) {
+  const OccupancyGrid willow = loadMap(test::robotMap("willow-2010-02-18-0.10"));
+  EXPECT_EQ(willow.width, 566);
+  EXPECT_EQ(willow.height, 608);
+  EXPECT_DOUBLE_EQ(willow.resolution, 0.10);
+  const OccupancyGrid rilo = loadMap(test::robotMap("rilo"));  // free_thresh 0.25, mode trinary
+  EXPECT_EQ(rilo.width, 1235);
+  EXPECT_NEAR(rilo.origin.x, -42.5, 1e-12);
+}
+
+TEST(MapIo, RoundTripKeepsCellsAndOrigin) {
+  OccupancyGrid g = loadMap(test::referenceMap("freiburg-079"));
+  g.origin.yaw = 0.25;  // a rotated origin must survive too
+  for (const char* ext : {".pgm", ".png"}) {
+    const fs::path yaml = tempDir() / (std::string("roundtrip") + (ext[2] == 'g' ? "_pgm" : "_png") + ".yaml");
+    saveMap(g, yaml.string(), ext);
+    const OccupancyGrid back = loadMap(yaml.string());
+    ASSERT_EQ(back.width, g.width);
+    ASSERT_EQ(back.height, g.height);
+    EXPECT_DOUBLE_EQ(back.resolution, g.resolution);
+    EXPECT_DOUBLE_EQ(back.origin.x, g.origin.x);
+    EXPECT_DOUBLE_EQ(back.origin.y, g.origin.y);
+    EXPECT_DOUBLE_EQ(back.origin.yaw, g.origin.yaw);
+    EXPECT_EQ(back.data, g.data) << ext;
+  }
+}
+
+TEST(MapIo, HonoursNegateScaleAndRawModes) {
+  const fs::path dir = tempDir();
+  cv::Mat image(1, 4, CV_8U);
+  image.at<uint8_t>(0, 0) = 0, image.at<uint8_t>(0, 1) = 128, image.at<uint8_t>(0, 2) = 254, image.at<uint8_t>(0, 3) = 50;
+  cv::imwrite((dir / "modes.pgm").string(), image);
+  const std::string common = "image: modes.pgm\nresolution: 0.1\norigin: [1, 2, 0]\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  writeText(dir / "trinary.yaml", common + "negate: 0\n");
+  writeText(dir / "negate.yaml", common + "negate: 1\n");
+  writeText(dir / "scale.yaml", common + "negate: 0\nmode: scale\n");
+  writeText(dir / "raw.yaml", common + "negate: 0\nmode: raw\n");
+  EXPECT_EQ(loadMap((dir / "trinary.yaml").string()).data, (std::vector<int8_t>{100, -1, 0, 100}));
+  // negate: p = v / 255, so 50 -> 0.196 is just above free_thresh: unknown.
+  EXPECT_EQ(loadMap((dir / "negate.yaml").string()).data, (std::vector<int8_t>{0, -1, 100, -1}));
+  // scale: p = (255 - 128) / 255 = 0.498 -> 99 * (0.498 - 0.196) / (0.65 - 0.196) = 66
+  EXPECT_EQ(loadMap((dir / "scale.yaml").string()).data, (std::vector<int8_t>{100, 66, 0, 100}));
+  EXPECT_EQ(loadMap((dir / "raw.yaml").string()).data, (std::vector<int8_t>{0, -1, -1, 50}));
+}
+
+TEST(MapIo, BadFilesGiveErrorsNamingTheFile) {
+  const fs::path dir = tempDir();
+  cv::imwrite((dir / "ok.pgm").string(), cv::Mat(3, 3, CV_8U, cv::Scalar(254)));
+  const std::string tail = "origin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  writeText(dir / "zero_res.yaml", "image: ok.pgm\nresolution: 0\n" + tail);
+  writeText(dir / "nan_res.yaml", "image: ok.pgm\nresolution: .nan\n" + tail);
+  writeText(dir / "no_image.yaml", "image: missing.pgm\nresolution: 0.05\n" + tail);
+  writeText(dir / "malformed.yaml", "image: [ok.pgm\nresolution: : 0.05\n");
+  writeText(dir / "bad_origin.yaml", "image: ok.pgm\nresolution: 0.05\norigin: [0, 0]\n");
+  writeText(dir / "not_image.pgm", "P5\n100 100\n255\nshort");
+  writeText(dir / "truncated.yaml", "image: not_image.pgm\nresolution: 0.05\n" + tail);
+  EXPECT_NE(loadError(dir / "zero_res.yaml").find("resolution"), std::string::npos);
+  EXPECT_NE(loadError(dir / "nan_res.yaml").find("resolution"), std::string::npos);
+  EXPECT_NE(loadError(dir / "no_image.yaml").find("missing.pgm"), std::string::npos);
+  EXPECT_NE(loadError(dir / "malformed.yaml").find("malformed yaml"), std::string::npos);
+  EXPECT_NE(loadError(dir / "bad_origin.yaml").find("origin"), std::string::npos);
+  EXPECT_NE(loadError(dir / "truncated.yaml").find("not_image.pgm"), std::string::npos);
+  EXPECT_NE(loadError(dir / "nothing_here.yaml").find("nothing_here.yaml: no such file"), std::string::npos);
+}
+
+TEST(Grid, ValidateRejectsMalformedGrids) {
+  OccupancyGrid g;
+  g.width = 4, g.height = 3, g.resolution = 0.05, g.data.assign(12, 0);
+  EXPECT_EQ(validateGrid(g), "");
+  g.data.resize(11);
+  EXPECT_NE(validateGrid(g).find("data has 11 cells"), std::string::npos);
+  g.data.assign(12, 0);
+  g.resolution = std::nan("");
+  EXPECT_NE(validateGrid(g).find("resolution"), std::string::npos);
+  g.resolution = 0.05;
+  g.data[3] = 101;
+  EXPECT_NE(validateGrid(g).find("outside -1..100"), std::string::npos);
+  g.data[3] = 0;
+  EXPECT_NE(validateGrid(g, 10).find("exceeds"), std::string::npos);
+}
+
+TEST(Pose2D, ComposeAndInverse) {
+  const Pose2D a{1.0, 2.0, 0.7}, b{-3.0, 0.5, -2.0};
+  const Pose2D id = a.compose(a.inverse());
+  EXPECT_NEAR(id.x, 0, 1e-12);
+  EXPECT_NEAR(id.y, 0, 1e-12);
+  EXPECT_NEAR(id.yaw, 0, 1e-12);
+  double x, y, x2, y2;
+  a.compose(b).apply(0.3, -0.2, x, y);
+  b.apply(0.3, -0.2, x2, y2);
+  a.apply(x2, y2, x2, y2);
+  EXPECT_NEAR(x, x2, 1e-12);
+  EXPECT_NEAR(y, y2, 1e-12);
+}
