@@ -63,6 +63,10 @@ struct FusionResult {
   double time_ms = 0;
 };
 
+// Pose of B's map frame in A's map frame from a transform in A's cells (B resampled to A's
+// resolution): origin_A o (R(theta), resolution_A * t) o origin_B^-1.
+Pose2D poseFromCells(const OccupancyGrid& a, const OccupancyGrid& b, const CellTransform& cells);
+
 // Why a grid cannot take part in fusion (empty string if it can): invalid structure, no
 // known cells, or no obstacle edges.
 std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params);

@@ -42,6 +42,11 @@ CellTransform turned(const CellTransform& h, double delta, const cv::Point2d& pi
 
 }  // namespace
 
+Pose2D poseFromCells(const OccupancyGrid& a, const OccupancyGrid& b, const CellTransform& cells) {
+  const Pose2D metric{a.resolution * cells.t.x, a.resolution * cells.t.y, Pose2D::normalizeAngle(cells.theta)};
+  return a.origin.compose(metric).compose(b.origin.inverse());
+}
+
 std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params) {
   std::string why = validateGrid(grid);
   if (!why.empty()) return why;
@@ -160,10 +165,7 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
     result.cells = best->transform;
     result.verdict = verify(best->counts, a.resolution, params.verification);
     result.accepted = result.verdict.accepted;
-    // Pose of B's frame in A's frame: origin_A o (R, res * t) o origin_B^-1.
-    const Pose2D cells_metric{a.resolution * result.cells.t.x, a.resolution * result.cells.t.y,
-                              Pose2D::normalizeAngle(result.cells.theta)};
-    result.pose = a.origin.compose(cells_metric).compose(b.origin.inverse());
+    result.pose = poseFromCells(a, b, result.cells);
   }
   result.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -1,0 +1,291 @@
+// mrslam_bench_merge: map-merge accuracy and speed of mrslam and its peers on real data.
+//
+// Pairs, with ground truth from their construction only (see pair_maker.h):
+//  - "window": two time windows of one corrected CARMEN log (Intel, ACES, Freiburg 079/101),
+//    ray-cast along the reference poses with random-walk drift; B in a random frame;
+//  - "crop": two overlapping crops of a real map (maps/reference and maps/robot_built),
+//    B re-rasterised in a random frame;
+//  - "none": maps of two different buildings, which must be rejected.
+// Random frames: yaw uniform in [0, 360) degrees, shift uniform in +-40 m.
+// Overlap: the share of the smaller map's known cells that the other map also knows.
+// Correct: |yaw error| <= 1 degree and the centre of B's grid placed within 2 cells.
+// Everything runs on one thread (cv::setNumThreads(1)), pair after pair, same pairs per tool.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/core/utils/logger.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "mrslam/bench/pair_maker.h"
+#include "mrslam/bench/peers.h"
+#include "mrslam/fusion/fusion_params_io.h"
+#include "mrslam/fusion/map_fusion.h"
+#include "mrslam/map_io.h"
+
+using namespace mrslam;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+struct Pair {
+  std::string name, kind;  // kind: window | crop | none
+  OccupancyGrid a, b;
+  Pose2D truth;
+  double overlap = 0;
+};
+
+struct Outcome {
+  bool accepted = false, correct = false;
+  double yaw_err_deg = 0, cells_err = 0, time_ms = 0;
+};
+
+std::string band(const Pair& p) {
+  if (p.kind == "none") return "no overlap";
+  return p.overlap < 0.5 ? "25-50 %" : (p.overlap < 0.75 ? "50-75 %" : "75-100 %");
+}
+
+Outcome judge(const Pair& p, bool accepted, const Pose2D& pose, double time_ms) {
+  Outcome o;
+  o.accepted = accepted, o.time_ms = time_ms;
+  double cx, cy, ex, ey, tx, ty;
+  p.b.origin.apply(p.b.width * p.b.resolution / 2, p.b.height * p.b.resolution / 2, cx, cy);
+  pose.apply(cx, cy, ex, ey);
+  p.truth.apply(cx, cy, tx, ty);
+  o.yaw_err_deg = std::abs(std::remainder(pose.yaw - p.truth.yaw, 2 * M_PI)) / kDeg;
+  o.cells_err = std::hypot(ex - tx, ey - ty) / p.a.resolution;
+  o.correct = accepted && p.kind != "none" && o.yaw_err_deg <= 1.0 && o.cells_err <= 2.0;
+  return o;
+}
+
+Pose2D randomFrame(std::mt19937& rng) {
+  std::uniform_real_distribution<double> yaw(0, 2 * M_PI), shift(-40, 40);
+  const double x = shift(rng), y = shift(rng);
+  return {x, y, yaw(rng)};
+}
+
+struct Builder {
+  std::string data;
+  std::mt19937 rng;
+  std::map<std::string, std::vector<bench::LaserScan2D>> logs;
+  std::map<std::string, OccupancyGrid> maps;
+
+  const std::vector<bench::LaserScan2D>& log(const std::string& name) {
+    auto it = logs.find(name);
+    if (it == logs.end())
+      it = logs.emplace(name, bench::readCarmenScans(data + "/logs/carmen_corrected/" + name + "-corrected.log.gz")).first;
+    return it->second;
+  }
+  const OccupancyGrid& map(const std::string& path) {
+    auto it = maps.find(path);
+    if (it == maps.end()) it = maps.emplace(path, loadMap(data + "/maps/" + path + ".yaml")).first;
+    return it->second;
+  }
+
+  // A random time window of a log, in a frame `frame` (identity for map A).
+  OccupancyGrid window(const std::string& name, const Pose2D& frame, std::string& label) {
+    const auto& scans = log(name);
+    const size_t n = scans.size();
+    std::uniform_real_distribution<double> length(0.25, 0.6), start(0, 1);
+    const size_t len = static_cast<size_t>(length(rng) * n);
+    const size_t first = static_cast<size_t>(start(rng) * (n - len));
+    label = name + "[" + std::to_string(first) + "," + std::to_string(first + len) + ")";
+    return bench::raycastMap(scans, first, first + len, frame, bench::RaycastParams{}, rng);
+  }
+  OccupancyGrid crop(const std::string& path, std::string& label) {
+    const OccupancyGrid& g = map(path);
+    std::uniform_real_distribution<double> size(0.45, 0.8), pos(0, 1);
+    const int w = static_cast<int>(size(rng) * g.width), h = static_cast<int>(size(rng) * g.height);
+    const int c0 = static_cast<int>(pos(rng) * (g.width - w)), r0 = static_cast<int>(pos(rng) * (g.height - h));
+    label = path + "(" + std::to_string(c0) + "," + std::to_string(r0) + " " + std::to_string(w) + "x" + std::to_string(h) + ")";
+    return bench::trimUnknown(bench::cropGrid(g, c0, r0, w, h));
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string data = "../shared/data", csv_path, config;
+  int per_band = 24, negatives = 18;
+  unsigned seed = 2026;
+  bool run_mrpt = true, large = true;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) { std::cerr << arg << " needs a value\n"; std::exit(2); }
+      return argv[++i];
+    };
+    if (arg == "--data") data = next();
+    else if (arg == "--per-band") per_band = std::stoi(next());
+    else if (arg == "--negatives") negatives = std::stoi(next());
+    else if (arg == "--seed") seed = static_cast<unsigned>(std::stoul(next()));
+    else if (arg == "--csv") csv_path = next();
+    else if (arg == "--config") config = next();
+    else if (arg == "--no-mrpt") run_mrpt = false;
+    else if (arg == "--no-large") large = false;
+    else {
+      std::cerr << "usage: mrslam_bench_merge [--data DIR] [--per-band N] [--negatives N] [--seed N] "
+                   "[--csv FILE] [--config fusion.yaml] [--no-mrpt] [--no-large]\n";
+      return 2;
+    }
+  }
+  cv::setNumThreads(1);
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  fusion::FusionParams params;
+  if (!config.empty()) params = fusion::loadFusionParams(config);
+
+  Builder builder{data, std::mt19937(seed), {}, {}};
+  const std::vector<std::string> logs = {"intel", "aces", "freiburg-079", "freiburg-101"};
+  const std::vector<std::string> crop_maps = {"reference/intel", "reference/aces", "reference/freiburg-079",
+                                              "reference/freiburg-101", "robot_built/gdc_floor1",
+                                              "robot_built/rilo", "robot_built/willow-2010-02-18-0.10"};
+  const std::vector<std::string> bands = {"25-50 %", "50-75 %", "75-100 %"};
+
+  // Overlapping pairs: half time windows, half crops, evenly over the bands and sources.
+  std::vector<Pair> pairs;
+  std::map<std::string, int> filled;  // kind + band -> count
+  const int per_kind = per_band / 2;
+  const auto t_gen = std::chrono::steady_clock::now();
+  for (int attempt = 0; attempt < 4000; ++attempt) {
+    const bool want_window = attempt % 2 == 0;
+    const std::string kind = want_window ? "window" : "crop";
+    Pair p;
+    p.kind = kind;
+    std::string la, lb;
+    if (want_window) {
+      const std::string& log = logs[(attempt / 2) % logs.size()];
+      p.truth = randomFrame(builder.rng);
+      p.a = builder.window(log, Pose2D{}, la);
+      p.b = builder.window(log, p.truth, lb);
+    } else {
+      const std::string& path = crop_maps[(attempt / 2) % crop_maps.size()];
+      p.a = builder.crop(path, la);
+      const OccupancyGrid b = builder.crop(path, lb);
+      p.truth = randomFrame(builder.rng);
+      p.b = bench::reframeGrid(b, p.truth);
+    }
+    p.overlap = bench::knownOverlap(p.a, p.b, p.truth);
+    if (p.overlap < 0.25) continue;
+    const std::string key = kind + band(p);
+    if (filled[key] >= per_kind) continue;
+    ++filled[key];
+    p.name = la + " + " + lb;
+    pairs.push_back(std::move(p));
+    if (static_cast<int>(pairs.size()) >= per_kind * 2 * 3) break;
+  }
+  // Non-overlapping pairs: two different buildings.
+  std::uniform_int_distribution<size_t> pick(0, logs.size() - 1);
+  for (int k = 0; k < negatives; ++k) {
+    Pair p;
+    p.kind = "none";
+    std::string la, lb;
+    const size_t i = pick(builder.rng);
+    size_t j = pick(builder.rng);
+    while (j == i) j = pick(builder.rng);
+    p.truth = randomFrame(builder.rng);
+    if (k % 2 == 0) {
+      p.a = builder.window(logs[i], Pose2D{}, la);
+      p.b = builder.window(logs[j], p.truth, lb);
+    } else {
+      p.a = builder.crop(crop_maps[i], la);
+      p.b = bench::reframeGrid(builder.crop(k % 4 == 1 ? "robot_built/gdc_floor1" : crop_maps[j], lb), p.truth);
+    }
+    p.name = la + " + " + lb;
+    pairs.push_back(std::move(p));
+  }
+  std::printf("# Map-merge benchmark (seed %u): %zu pairs built in %.0f s\n\n", seed, pairs.size(),
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t_gen).count());
+
+  using Tool = std::function<Outcome(const Pair&)>;
+  std::vector<std::pair<std::string, Tool>> tools = {
+      {"mrslam", [&](const Pair& p) {
+         const auto r = fusion::alignMaps(p.a, p.b, params);
+         return judge(p, r.accepted, r.pose, r.time_ms);
+       }},
+      {"akaze (m-explore style)", [&](const Pair& p) {
+         const auto r = bench::alignWithAkaze(p.a, p.b);
+         return judge(p, r.accepted, r.pose, r.time_ms);
+       }},
+  };
+  if (run_mrpt)
+    tools.push_back({"mrpt CGridMapAligner", [&](const Pair& p) {
+                       const auto r = bench::alignWithMrpt(p.a, p.b);
+                       return judge(p, r.accepted, r.pose, r.time_ms);
+                     }});
+
+  std::ofstream csv;
+  if (!csv_path.empty()) {
+    csv.open(csv_path);
+    csv << "tool,kind,band,overlap,pair,a_cells,b_cells,accepted,correct,yaw_err_deg,cells_err,time_ms\n";
+  }
+  for (const auto& [tool_name, tool] : tools) {
+    std::map<std::string, std::vector<Outcome>> by_band;
+    std::vector<double> times;
+    for (const Pair& p : pairs) {
+      const Outcome o = tool(p);
+      by_band[band(p)].push_back(o);
+      times.push_back(o.time_ms);
+      if (csv)
+        csv << '"' << tool_name << "\"," << p.kind << ",\"" << band(p) << "\"," << p.overlap << ",\"" << p.name << "\","
+            << p.a.width << "x" << p.a.height << "," << p.b.width << "x" << p.b.height << "," << o.accepted << ","
+            << o.correct << "," << o.yaw_err_deg << "," << o.cells_err << "," << o.time_ms << "\n";
+    }
+    std::printf("## %s\n\n| overlap | pairs | correct | rejected | wrong accepts | false accepts | median ms | p95 ms |\n"
+                "|---|---|---|---|---|---|---|---|\n", tool_name.c_str());
+    int all_pairs = 0, all_correct = 0, all_wrong = 0;
+    for (const std::string& b : {bands[0], bands[1], bands[2], std::string("no overlap")}) {
+      auto& v = by_band[b];
+      if (v.empty()) continue;
+      int correct = 0, rejected = 0, wrong = 0;
+      std::vector<double> t;
+      for (const Outcome& o : v) {
+        correct += o.correct, rejected += !o.accepted, wrong += o.accepted && !o.correct;
+        t.push_back(o.time_ms);
+      }
+      std::sort(t.begin(), t.end());
+      const bool none = b == "no overlap";
+      if (!none) all_pairs += v.size(), all_correct += correct, all_wrong += wrong;
+      std::printf("| %s | %zu | %s | %d | %s | %s | %.0f | %.0f |\n", b.c_str(), v.size(),
+                  none ? "-" : (std::to_string(correct) + " (" + std::to_string(100 * correct / int(v.size())) + " %)").c_str(),
+                  rejected, none ? "-" : std::to_string(wrong).c_str(), none ? std::to_string(wrong).c_str() : "-",
+                  t[t.size() / 2], t[std::min(t.size() - 1, static_cast<size_t>(0.95 * t.size()))]);
+    }
+    std::sort(times.begin(), times.end());
+    std::printf("| all overlapping | %d | %d (%.1f %%) | | %d | | %.0f | %.0f |\n\n", all_pairs, all_correct,
+                100.0 * all_correct / std::max(1, all_pairs), all_wrong, times[times.size() / 2],
+                times[std::min(times.size() - 1, static_cast<size_t>(0.95 * times.size()))]);
+    std::fflush(stdout);
+  }
+
+  if (large) {
+    // One ~4000 x 4000 pair: the ACES reference map at 3.4x finer resolution (nearest
+    // neighbour), A the whole map, B an 85 % crop in a random frame.
+    const OccupancyGrid& aces = builder.map("reference/aces");
+    const double factor = 3.4;
+    OccupancyGrid big;
+    big.resolution = aces.resolution / factor, big.origin = aces.origin;
+    big.width = static_cast<int>(aces.width * factor), big.height = static_cast<int>(aces.height * factor);
+    big.data.resize(static_cast<size_t>(big.width) * big.height);
+    for (int r = 0; r < big.height; ++r)
+      for (int c = 0; c < big.width; ++c) big.at(c, r) = aces.at(static_cast<int>(c / factor), static_cast<int>(r / factor));
+    Pair p;
+    p.kind = "crop", p.a = big, p.truth = randomFrame(builder.rng);
+    p.b = bench::reframeGrid(bench::cropGrid(big, big.width * 15 / 100, 0, big.width * 85 / 100, big.height), p.truth);
+    p.overlap = bench::knownOverlap(p.a, p.b, p.truth);
+    std::printf("## Large pair: %d x %d and %d x %d cells (ACES at %.4f m)\n\n| tool | accepted | correct | ms |\n|---|---|---|---|\n",
+                p.a.width, p.a.height, p.b.width, p.b.height, big.resolution);
+    for (const auto& [tool_name, tool] : tools) {
+      if (tool_name.rfind("mrpt", 0) == 0) continue;  // minutes per run on this size; see the closing note
+      const Outcome o = tool(p);
+      std::printf("| %s | %s | %s | %.0f |\n", tool_name.c_str(), o.accepted ? "yes" : "no", o.correct ? "yes" : "no", o.time_ms);
+    }
+  }
+  return 0;
+}
