@@ -95,6 +95,18 @@ TEST(EdgeSmoothing, ThickWallBecomesItsOneCellMiddleCurve) {
   EXPECT_LT(middle_distance, 0.75 * edge_distance);
 }
 
+TEST(EdgeSmoothing, OwnThinningMatchesOpenCvs) {
+  const cv::Mat t = intelCrop();
+  cv::Mat closed;
+  cv::morphologyEx(cannyEdges(t, CannyParams{}), closed, cv::MORPH_CLOSE,
+                   cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}));
+  cv::Mat reference;
+  cv::ximgproc::thinning(closed, reference, cv::ximgproc::THINNING_ZHANGSUEN);
+  const cv::Mat ours = thinToMiddleCurves(closed);
+  ASSERT_GT(cv::countNonZero(reference), 500);
+  EXPECT_EQ(cv::countNonZero((ours != 0) != (reference != 0)), 0);
+}
+
 TEST(RandomSegment, WalksConnectedPointsAndIsReproducible) {
   const cv::Mat curves = smoothEdges(cannyEdges(intelCrop(), CannyParams{}), 2);
   std::vector<cv::Point> pts;
@@ -252,14 +264,14 @@ TEST(Verification, AcceptsTheTruthRejectsAWrongPoseAndAnotherBuilding) {
   const cv::Mat t = intelCrop();
   const SimilarityIndex same(t, t, 0);
   VerificationParams params;
-  EXPECT_TRUE(verify(same.evaluate({0, {0, 0}}), 0.05, params).accepted);
-  const Verdict wrong = verify(same.evaluate({90 * kDeg, {300, 0}}), 0.05, params);
+  EXPECT_TRUE(verify(same.evaluate({0, {0, 0}}), 0.05, 1.0, 1000.0, params).accepted);
+  const Verdict wrong = verify(same.evaluate({90 * kDeg, {300, 0}}), 0.05, 1.0, 1000.0, params);
   EXPECT_FALSE(wrong.accepted);
   const OccupancyGrid aces = loadMap(test::referenceMap("aces"));
   const cv::Mat other = toTernary(bench::cropGrid(aces, 400, 400, 300, 300));
   const SimilarityIndex different(t, other, 0);
   const SearchResult best = different.search({0, {0, 0}}, 20, kDeg, 3);
-  const Verdict v = verify(best.counts, 0.05, params);
+  const Verdict v = verify(best.counts, 0.05, 1.0, 1000.0, params);
   EXPECT_FALSE(v.accepted);
   EXPECT_FALSE(v.reason.empty());
   EXPECT_DOUBLE_EQ(fusedEntropyIncrease(same.evaluate({0, {0, 0}})), 0.0);
@@ -272,10 +284,15 @@ TEST(CorrelationSearch, FindsAKnownTranslationAtAKnownRotation) {
   // B is A turned by -70 degrees: then A = R(70) (B - offset') for the canvas offset.
   const cv::Mat b = rotateTernary(a, -truth.theta, offset);
   const CellTransform b_to_a{truth.theta, -CellTransform{truth.theta, {0, 0}}.apply(offset)};
-  const CorrelationSearch search(a, b, 1.0);
-  const auto candidates = search.candidates(truth.theta, 3, 3);
-  ASSERT_FALSE(candidates.empty());
-  EXPECT_LE(cv::norm(candidates[0].t - b_to_a.t), 1.5);
+  const CorrelationSearch search(a, b, 10.0);
+  // Asked at theta and at theta - pi (whose reflected half is theta): both must find it.
+  for (const double asked : {truth.theta, truth.theta - M_PI}) {
+    const auto candidates = search.candidates(asked, 3, 3);
+    ASSERT_EQ(candidates.size(), 6u);
+    const CellTransform& best = asked == truth.theta ? candidates[0] : candidates[3];
+    EXPECT_NEAR(std::remainder(best.theta - truth.theta, 2 * M_PI), 0.0, 1e-9);
+    EXPECT_LE(cv::norm(best.t - b_to_a.t), 1.5) << asked;
+  }
 }
 
 TEST(GridMerge, PlacesPiecesBackWhereTheyCameFrom) {

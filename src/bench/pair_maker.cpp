@@ -58,12 +58,16 @@ std::vector<LaserScan2D> readCarmenScans(const std::string& path, int* skipped_l
 OccupancyGrid raycastMap(const std::vector<LaserScan2D>& scans, size_t first, size_t last,
                          const Pose2D& frame_in_world, const RaycastParams& params, std::mt19937& rng) {
   const Pose2D world_to_frame = frame_in_world.inverse();
-  std::normal_distribution<double> nxy(0.0, params.drift_sigma_xy), nyaw(0.0, params.drift_sigma_yaw);
+  std::normal_distribution<double> unit(0.0, 1.0);
   Pose2D drift;
   std::vector<Pose2D> poses;
   double min_x = std::numeric_limits<double>::max(), min_y = min_x, max_x = -min_x, max_y = -min_x;
   for (size_t k = first; k < last; ++k) {
-    if (k > first && params.drift_sigma_xy > 0) drift = drift.compose(Pose2D{nxy(rng), nxy(rng), nyaw(rng)});
+    if (k > first) {
+      const double metres = std::hypot(scans[k].pose.x - scans[k - 1].pose.x, scans[k].pose.y - scans[k - 1].pose.y);
+      const double sxy = params.drift_sigma_xy * std::sqrt(metres), syaw = params.drift_sigma_yaw * std::sqrt(metres);
+      drift = drift.compose(Pose2D{sxy * unit(rng), sxy * unit(rng), syaw * unit(rng)});
+    }
     const Pose2D p = world_to_frame.compose(scans[k].pose.compose(drift));
     poses.push_back(p);
     const double reach = params.max_range;

@@ -120,6 +120,7 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
     cv::extractChannel(image, image, 0);
   }
 
+  const bool raw = mode == "raw", scale = mode == "scale";
   OccupancyGrid grid;
   grid.width = image.cols;
   grid.height = image.rows;
@@ -132,11 +133,11 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
     for (int c = 0; c < image.cols; ++c) {
       int8_t& cell = grid.at(c, grid_row);
       const int v = row[c];
-      if (mode == "raw") {
+      if (raw) {
         cell = v > 100 ? OccupancyGrid::kUnknown : static_cast<int8_t>(v);
         continue;
       }
-      if (mode == "scale" && !alpha.empty() && alpha.at<uint8_t>(r, c) == 0) {
+      if (scale && !alpha.empty() && alpha.at<uint8_t>(r, c) == 0) {
         cell = OccupancyGrid::kUnknown;
         continue;
       }
@@ -145,7 +146,7 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
         cell = 100;
       } else if (p < free_th) {
         cell = 0;
-      } else if (mode == "scale") {
+      } else if (scale) {
         cell = static_cast<int8_t>(std::lround(99.0 * (p - free_th) / (occ_th - free_th)));
       } else {
         cell = OccupancyGrid::kUnknown;

@@ -12,4 +12,8 @@ namespace mrslam::fusion {
 // `edges`: CV_8U 0/255. Returns the one-cell-wide middle curves (CV_8U 0/255).
 cv::Mat smoothEdges(const cv::Mat& edges, int distance_threshold_cells);
 
+// Zhang-Suen thinning of a binary image (CV_8U, 0/non-zero) to one-cell-wide curves; the same
+// result as cv::ximgproc::thinning(THINNING_ZHANGSUEN) at a fraction of the cost on sparse images.
+cv::Mat thinToMiddleCurves(const cv::Mat& binary);
+
 }  // namespace mrslam::fusion

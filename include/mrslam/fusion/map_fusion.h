@@ -37,9 +37,8 @@ struct FusionParams {
   int spectrum_max_cells = 400;   // pyramid level used for Radon spectra
   double spectrum_step_deg = 1.0;
   int rotation_candidates = 4;    // spectrum peaks; each is tried at alpha and alpha + 180 deg
-  int coarse_max_cells = 160;     // coarse pyramid level for the global search
+  int coarse_max_cells = 256;     // coarse pyramid level for the global search
   int translation_peaks = 4;      // correlation peaks per rotation
-  double conflict_penalty = 1.0;  // weight of free/obstacle conflicts in the correlation
 
   int coarse_search_radius = 2;   // similarity search around each global hypothesis (coarse cells)
   int segment_search_radius = 10; // the paper's "ten cells" around a segment hypothesis
@@ -48,7 +47,10 @@ struct FusionParams {
   double radon_window_deg = 2.0;  // Radon tuning searches +- this around the hypothesis
   double radon_step_deg = 0.1;
   int refine_radius = 2;          // similarity search per finer level (cells of that level)
+  double polish_step_deg = 0.05;  // final full-resolution rotation step for the best hypothesis
+  int polish_steps = 4;           // ... searched over +- this many steps (and +- 1 cell)
   int max_free_points = 30000;    // free cells of B used per similarity evaluation
+  double disagreement_weight = 10.0;  // ranking score agr - w * dis (w = 1: the paper's J)
 
   double max_resolution_ratio = 4.0;  // maps whose resolutions differ more are refused
   VerificationParams verification;

@@ -28,6 +28,23 @@ double radonRotationTuning(const std::vector<cv::Point2f>& points_a,
                            const std::vector<cv::Point2f>& points_b_rotated, double window,
                            double step);
 
+// The same, with map A's part (its strongest directions and fine spectra around them)
+// computed once for many hypotheses about B.
+class RadonTuner {
+ public:
+  RadonTuner(const std::vector<cv::Point2f>& points_a, double window, double step);
+  double tune(const std::vector<cv::Point2f>& points_b_rotated) const;
+
+ private:
+  struct Peak {
+    double centre;
+    std::vector<double> energy_a;  // +- window around centre
+  };
+  std::vector<Peak> peaks_;
+  double step_;
+  int half_;
+};
+
 // Our extension for unknown initial rotation (0-360 degrees): the circular cross-correlation
 // of the two maps' line-energy spectra over all rotations, returning the `count` strongest
 // local maxima alpha in [0, pi). Each alpha stands for two rotations, alpha and alpha + pi.

@@ -28,7 +28,11 @@ struct SimilarityCounts {
 
   double agr() const { return occupied_agree + free_agree; }
   double dis() const { return occupied_conflict + free_conflict; }
-  double J() const { return agr() - dis(); }
+  double J() const { return agr() - dis(); }  // the paper's similarity index
+  // Our ranking score: J with disagreements weighted (weight 1 is the paper's J). Free space
+  // dominates agr, so with weight 1 a pose that overlays more free space wins even when it
+  // puts walls across rooms; measured on the merge benchmark, see config/fusion.yaml.
+  double score(double disagreement_weight) const { return agr() - disagreement_weight * dis(); }
   // The paper's acceptance (verification) index V = agr / (agr + dis), in [0, 1].
   double acceptance() const { return agr() + dis() > 0 ? agr() / (agr() + dis()) : 0.0; }
   // Of B's obstacles that fall in A's known space, the share that meets A's obstacles.
@@ -47,14 +51,18 @@ class SimilarityIndex {
  public:
   // Both images are ternary (see ternary_image.h) at the same resolution. At most
   // `max_free_points` of B's free cells are used (an even subsample, reweighted), which keeps
-  // the cost per evaluation bounded on large maps.
-  SimilarityIndex(const cv::Mat& ternary_a, const cv::Mat& ternary_b, int max_free_points);
+  // the cost per evaluation bounded on large maps. Searches maximise score(disagreement_weight).
+  SimilarityIndex(const cv::Mat& ternary_a, const cv::Mat& ternary_b, int max_free_points,
+                  double disagreement_weight = 1.0);
 
   SimilarityCounts evaluate(const CellTransform& transform) const;
 
+  // Centre of B's obstacles (cell coordinates of B), the pivot of rotation steps.
+  const cv::Point2d& obstacleCentre() const { return center_b_; }
+
   // Exhaustive search over integer translations within `radius` cells of transform.t, and
   // rotations transform.theta + k * rotation_step for |k| <= rotation_steps (turning B about
-  // the centre of its obstacles, so a small turn does not sweep far cells away). Maximises J.
+  // the centre of its obstacles, so a small turn does not sweep far cells away).
   SearchResult search(const CellTransform& transform, int radius, double rotation_step,
                       int rotation_steps) const;
 
@@ -63,6 +71,7 @@ class SimilarityIndex {
   cv::Mat lookup_a_;  // LookupClass per cell of A
   std::vector<cv::Point2f> occupied_b_, free_b_;
   double free_weight_ = 1.0;
+  double disagreement_weight_ = 1.0;
   cv::Point2d center_b_;  // centre of B's obstacles, the pivot of rotation steps
 
   void accumulate(const std::vector<cv::Point2f>& points, const CellTransform& transform,

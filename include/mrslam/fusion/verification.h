@@ -5,7 +5,11 @@
 //    the image more random than the maps were on their own (conflicting cells add a third
 //    grey level and raise the entropy of the fused image);
 //  - our additions, because V is dominated by free space: the share of B's obstacles that
-//    meet A's obstacles (wall agreement), and enough shared wall to be evidence at all.
+//    meet A's obstacles (wall agreement), enough shared wall to be evidence at all (in metres
+//    and as a share of the smaller map's walls: the merge must explain part of a map), and
+//    distinctiveness: the score must drop clearly when B is displaced (about a metre in any
+//    direction, or turned a few degrees). Two corridors overlay well at many shifts; a pose
+//    that is not a clear extremum is not evidence of where B is (cf. the paper's Fig. 10).
 #pragma once
 
 #include <string>
@@ -15,10 +19,14 @@
 namespace mrslam::fusion {
 
 struct VerificationParams {
-  double min_acceptance = 0.90;        // V
+  double min_acceptance = 0.95;        // V
   double min_wall_agreement = 0.60;    // share of B's obstacles in A's known space on A's obstacles
   double min_shared_wall_m = 8.0;      // agreeing obstacle cells x resolution
-  double max_entropy_increase = 0.10;  // bits: H(fused) - mean(H(A), H(B)) over the overlap
+  double min_shared_wall_fraction = 0.15;  // agreeing obstacle cells / obstacle cells of the smaller map
+  double max_entropy_increase = 0.20;  // bits: H(fused) - mean(H(A), H(B)) over the overlap
+  double min_distinctiveness = 0.15;   // 1 - best displaced score / score
+  double distinct_shift_m = 1.0;       // displacement used for distinctiveness
+  double distinct_turn_deg = 3.0;      // rotation used for distinctiveness
 };
 
 struct Verdict {
@@ -26,13 +34,18 @@ struct Verdict {
   double acceptance = 0;       // V
   double wall_agreement = 0;
   double shared_wall_m = 0;
+  double shared_wall_fraction = 0;
   double entropy_increase = 0;
+  double distinctiveness = 0;
   std::string reason;          // why it was rejected; empty when accepted
 };
 
 // Entropy increase (bits) of the fused image over the overlap, from the counts (eq. 21).
 double fusedEntropyIncrease(const SimilarityCounts& counts);
 
-Verdict verify(const SimilarityCounts& counts, double resolution, const VerificationParams& params);
+// `distinctiveness` is 1 - (best score of the displaced poses) / (score of the pose);
+// `smaller_map_walls` the number of obstacle cells of the map with fewer of them.
+Verdict verify(const SimilarityCounts& counts, double resolution, double distinctiveness,
+               double smaller_map_walls, const VerificationParams& params);
 
 }  // namespace mrslam::fusion

@@ -44,7 +44,6 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
       {"rotation_candidates", bind(p.rotation_candidates)},
       {"coarse_max_cells", bind(p.coarse_max_cells)},
       {"translation_peaks", bind(p.translation_peaks)},
-      {"conflict_penalty", bind(p.conflict_penalty)},
       {"coarse_search_radius", bind(p.coarse_search_radius)},
       {"segment_search_radius", bind(p.segment_search_radius)},
       {"coarse_rotation_step_deg", bind(p.coarse_rotation_step_deg)},
@@ -52,12 +51,19 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
       {"radon_window_deg", bind(p.radon_window_deg)},
       {"radon_step_deg", bind(p.radon_step_deg)},
       {"refine_radius", bind(p.refine_radius)},
+      {"polish_step_deg", bind(p.polish_step_deg)},
+      {"polish_steps", bind(p.polish_steps)},
       {"max_free_points", bind(p.max_free_points)},
+      {"disagreement_weight", bind(p.disagreement_weight)},
       {"max_resolution_ratio", bind(p.max_resolution_ratio)},
       {"min_acceptance", bind(v.min_acceptance)},
       {"min_wall_agreement", bind(v.min_wall_agreement)},
       {"min_shared_wall_m", bind(v.min_shared_wall_m)},
+      {"min_shared_wall_fraction", bind(v.min_shared_wall_fraction)},
       {"max_entropy_increase", bind(v.max_entropy_increase)},
+      {"min_distinctiveness", bind(v.min_distinctiveness)},
+      {"distinct_shift_m", bind(v.distinct_shift_m)},
+      {"distinct_turn_deg", bind(v.distinct_turn_deg)},
   };
   YAML::Node root;
   try {

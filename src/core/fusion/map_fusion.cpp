@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <memory>
+#include <optional>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -38,6 +40,27 @@ CellTransform turned(const CellTransform& h, double delta, const cv::Point2d& pi
   CellTransform out{h.theta + delta, h.t};
   out.t += h.apply(pivot) - out.apply(pivot);
   return out;
+}
+
+// 1 - (best score among poses displaced by about a metre or turned a few degrees) / score.
+double distinctiveness(const SimilarityIndex& index, const SearchResult& found, double resolution,
+                       const FusionParams& params) {
+  const double w = params.disagreement_weight;
+  const double score = found.counts.score(w);
+  if (!(score > 0)) return 0.0;
+  const double shift = params.verification.distinct_shift_m / resolution;
+  const double turn = params.verification.distinct_turn_deg * kDeg;
+  double worst_ratio = -1e300;
+  for (int k = 0; k < 8; ++k) {
+    const double a = k * M_PI / 4;
+    const CellTransform moved{found.transform.theta, found.transform.t + shift * cv::Point2d(std::cos(a), std::sin(a))};
+    worst_ratio = std::max(worst_ratio, index.evaluate(moved).score(w) / score);
+  }
+  for (double sign : {-1.0, 1.0}) {
+    const CellTransform turned_pose = turned(found.transform, sign * turn, index.obstacleCentre());
+    worst_ratio = std::max(worst_ratio, index.evaluate(turned_pose).score(w) / score);
+  }
+  return 1.0 - worst_ratio;
 }
 
 }  // namespace
@@ -87,12 +110,11 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
   std::vector<std::pair<CellTransform, int>> hypotheses;
   const std::vector<cv::Point2f> spectrum_a = occupiedPoints(pyr_a[spectrum_level]);
   const std::vector<cv::Point2f> spectrum_b = occupiedPoints(pyr_b[spectrum_level]);
-  const CorrelationSearch correlation(pyr_a[coarse], pyr_b[coarse], params.conflict_penalty);
+  const CorrelationSearch correlation(pyr_a[coarse], pyr_b[coarse], params.disagreement_weight);
   for (double alpha : globalRotationCandidates(spectrum_a, spectrum_b, params.spectrum_step_deg * kDeg,
                                                params.rotation_candidates))
-    for (double theta : {alpha, alpha + M_PI})
-      for (const CellTransform& h : correlation.candidates(theta, params.translation_peaks, 3))
-        hypotheses.emplace_back(h, params.coarse_search_radius);
+    for (const CellTransform& h : correlation.candidates(alpha, params.translation_peaks, 3))
+      hypotheses.emplace_back(h, params.coarse_search_radius);
   if (params.use_segments) {
     const int level = std::min(coarse, levelFor(ternary_a, ternary_b, params.segment_max_cells));
     std::mt19937 rng(params.seed);
@@ -106,12 +128,15 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
 
   FusionResult result;
   result.hypotheses = static_cast<int>(hypotheses.size());
-  const SimilarityIndex coarse_index(pyr_a[coarse], pyr_b[coarse], params.max_free_points);
+  const SimilarityIndex coarse_index(pyr_a[coarse], pyr_b[coarse], params.max_free_points,
+                                     params.disagreement_weight);
   const double coarse_step = params.coarse_rotation_step_deg * kDeg;
   std::vector<SearchResult> scored;
   for (const auto& [h, radius] : hypotheses) scored.push_back(coarse_index.search(h, radius, coarse_step, 1));
-  std::sort(scored.begin(), scored.end(),
-            [](const SearchResult& x, const SearchResult& y) { return x.counts.J() > y.counts.J(); });
+  const double w = params.disagreement_weight;
+  std::sort(scored.begin(), scored.end(), [w](const SearchResult& x, const SearchResult& y) {
+    return x.counts.score(w) > y.counts.score(w);
+  });
   std::vector<CellTransform> survivors;
   for (const SearchResult& s : scored) {
     if (static_cast<int>(survivors.size()) >= params.refined_hypotheses) break;
@@ -122,15 +147,19 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
   }
 
   // Tune the survivors level by level down to full resolution.
+  std::unique_ptr<SimilarityIndex> finest;
   std::vector<SearchResult> finals(survivors.size());
   for (size_t i = 0; i < survivors.size(); ++i) finals[i].transform = survivors[i];
   for (int level = coarse - 1; level >= 0; --level) {
-    const SimilarityIndex index(pyr_a[level], pyr_b[level], params.max_free_points);
+    finest = std::make_unique<SimilarityIndex>(pyr_a[level], pyr_b[level], params.max_free_points,
+                                               params.disagreement_weight);
+    const SimilarityIndex& index = *finest;
     const double step = coarse_step / std::pow(2.0, coarse - level);
-    std::vector<cv::Point2f> points_a, points_b;
+    std::vector<cv::Point2f> points_b;
+    std::optional<RadonTuner> radon;
     cv::Point2d pivot;
     if (level == spectrum_level) {
-      points_a = occupiedPoints(pyr_a[level]);
+      radon.emplace(occupiedPoints(pyr_a[level]), params.radon_window_deg * kDeg, params.radon_step_deg * kDeg);
       points_b = occupiedPoints(pyr_b[level]);
       for (const auto& p : points_b) pivot += cv::Point2d(p);
       pivot /= static_cast<double>(std::max<size_t>(1, points_b.size()));
@@ -142,28 +171,34 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
         std::vector<cv::Point2f> rotated(points_b.size());
         const CellTransform rotation{h.theta, {0, 0}};
         for (size_t k = 0; k < points_b.size(); ++k) rotated[k] = cv::Point2f(rotation.apply(points_b[k]));
-        const double delta = radonRotationTuning(points_a, rotated, params.radon_window_deg * kDeg,
-                                                 params.radon_step_deg * kDeg);
+        const double delta = radon->tune(rotated);
         const CellTransform tuned = turned(h, delta, pivot);
-        if (index.search(tuned, params.refine_radius, 0, 0).counts.J() >
-            index.search(h, params.refine_radius, 0, 0).counts.J())
+        if (index.search(tuned, params.refine_radius, 0, 0).counts.score(w) >
+            index.search(h, params.refine_radius, 0, 0).counts.score(w))
           h = tuned;
       }
       f = index.search(h, params.refine_radius, step, 1);
     }
   }
-  if (coarse == 0) {
-    for (SearchResult& f : finals) f.counts = coarse_index.evaluate(f.transform);
+  const SimilarityIndex& full = finest ? *finest : coarse_index;
+  if (!finest) {
+    for (SearchResult& f : finals) f.counts = full.evaluate(f.transform);
   }
 
-  const auto best = std::max_element(finals.begin(), finals.end(), [](const SearchResult& x, const SearchResult& y) {
-    return x.counts.J() < y.counts.J();
+  const auto best = std::max_element(finals.begin(), finals.end(), [w](const SearchResult& x, const SearchResult& y) {
+    return x.counts.score(w) < y.counts.score(w);
   });
   if (best == finals.end()) {
     result.verdict.reason = "no hypothesis found";
   } else {
+    // Polish the winner: the pyramid ends with quarter-degree rotation steps, which is a cell
+    // or more at 30 m from the pivot.
+    *best = full.search(best->transform, 1, params.polish_step_deg * kDeg, params.polish_steps);
     result.cells = best->transform;
-    result.verdict = verify(best->counts, a.resolution, params.verification);
+    const double walls_a = cv::countNonZero(ternary_a == kOccupiedCell);
+    const double walls_b = cv::countNonZero(ternary_b == kOccupiedCell);
+    result.verdict = verify(best->counts, a.resolution, distinctiveness(full, *best, a.resolution, params),
+                            std::min(walls_a, walls_b), params.verification);
     result.accepted = result.verdict.accepted;
     result.pose = poseFromCells(a, b, result.cells);
   }

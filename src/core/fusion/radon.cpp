@@ -13,13 +13,14 @@ std::vector<double> radonLineEnergy(const std::vector<cv::Point2f>& points, doub
   if (points.empty()) return energy;
   float max_r = 0;
   for (const auto& p : points) max_r = std::max(max_r, std::hypot(p.x, p.y));
-  const int offset = static_cast<int>(std::ceil(max_r)) + 1;
-  std::vector<int> bins(2 * offset + 2);
+  // rho + offset is never negative, so truncating rho + offset + 0.5 rounds to the nearest bin.
+  const float offset = std::ceil(max_r) + 1.5f;
+  std::vector<int> bins(2 * static_cast<size_t>(offset) + 3);
   for (int k = 0; k < count; ++k) {
     const double theta = start + k * step;
     const float c = static_cast<float>(std::cos(theta)), s = static_cast<float>(std::sin(theta));
     std::fill(bins.begin(), bins.end(), 0);
-    for (const auto& p : points) ++bins[static_cast<int>(std::lround(p.x * c + p.y * s)) + offset];
+    for (const auto& p : points) ++bins[static_cast<int>(p.x * c + p.y * s + offset)];
     double sum = 0;
     for (int b : bins) sum += static_cast<double>(b) * b;
     energy[k] = sum / points.size();
@@ -27,27 +28,44 @@ std::vector<double> radonLineEnergy(const std::vector<cv::Point2f>& points, doub
   return energy;
 }
 
+RadonTuner::RadonTuner(const std::vector<cv::Point2f>& points_a, double window, double step)
+    : step_(step), half_(static_cast<int>(std::ceil(window / step))) {
+  // The strongest line directions of A (local maxima of a 1-degree spectrum) decide; the fine
+  // spectra are computed only around them.
+  constexpr int kCoarse = 180, kPeaks = 8;
+  const double coarse_step = M_PI / kCoarse;
+  const std::vector<double> coarse = radonLineEnergy(points_a, 0.0, coarse_step, kCoarse);
+  std::vector<std::pair<double, int>> maxima;
+  for (int k = 0; k < kCoarse; ++k)
+    if (coarse[k] >= coarse[(k + 1) % kCoarse] && coarse[k] > coarse[(k + kCoarse - 1) % kCoarse])
+      maxima.emplace_back(coarse[k], k);
+  std::sort(maxima.rbegin(), maxima.rend());
+  for (size_t i = 0; i < maxima.size() && i < kPeaks; ++i) {
+    if (maxima[i].first < 0.25 * maxima.front().first) break;
+    const double centre = maxima[i].second * coarse_step;
+    peaks_.push_back({centre, radonLineEnergy(points_a, centre - half_ * step_, step_, 2 * half_ + 1)});
+  }
+}
+
+double RadonTuner::tune(const std::vector<cv::Point2f>& points_b_rotated) const {
+  std::vector<double> score(2 * half_ + 1, 0.0);
+  const double core = peaks_.empty() ? 0.0 : 0.25 * *std::max_element(peaks_[0].energy_a.begin(), peaks_[0].energy_a.end());
+  for (const Peak& peak : peaks_) {
+    // B around the peak (+- 2 window), so every shift of A's window is covered. Only the core
+    // of A's peaks takes part: the flanks are where rasterisation differs most.
+    const auto eb = radonLineEnergy(points_b_rotated, peak.centre - 2 * half_ * step_, step_, 4 * half_ + 1);
+    for (int shift = -half_; shift <= half_; ++shift)
+      for (int j = 0; j <= 2 * half_; ++j)
+        if (peak.energy_a[j] >= core) score[shift + half_] += peak.energy_a[j] * eb[j + half_ - shift];
+  }
+  const int best = static_cast<int>(std::max_element(score.begin(), score.end()) - score.begin());
+  return (best - half_) * step_;
+}
+
 double radonRotationTuning(const std::vector<cv::Point2f>& points_a,
                            const std::vector<cv::Point2f>& points_b_rotated, double window,
                            double step) {
-  const int half = static_cast<int>(std::ceil(window / step));
-  const int count = static_cast<int>(std::lround(M_PI / step));
-  const std::vector<double> ea = radonLineEnergy(points_a, 0.0, step, count);
-  const std::vector<double> eb = radonLineEnergy(points_b_rotated, 0.0, step, count);
-  // Score a shift by the correlation restricted to the strongest directions of A, so the
-  // peaks (walls) drive the result and the flat floor of the spectrum does not.
-  const double threshold = *std::max_element(ea.begin(), ea.end()) * 0.25;
-  int best_shift = 0;
-  double best = -1;
-  for (int shift = -half; shift <= half; ++shift) {
-    double score = 0;
-    for (int k = 0; k < count; ++k) {
-      if (ea[k] < threshold) continue;
-      score += ea[k] * eb[((k - shift) % count + count) % count];
-    }
-    if (score > best) best = score, best_shift = shift;
-  }
-  return best_shift * step;
+  return RadonTuner(points_a, window, step).tune(points_b_rotated);
 }
 
 std::vector<double> globalRotationCandidates(const std::vector<cv::Point2f>& points_a,

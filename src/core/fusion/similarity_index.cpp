@@ -8,7 +8,8 @@
 namespace mrslam::fusion {
 
 SimilarityIndex::SimilarityIndex(const cv::Mat& ternary_a, const cv::Mat& ternary_b,
-                                 int max_free_points) {
+                                 int max_free_points, double disagreement_weight)
+    : disagreement_weight_(disagreement_weight) {
   const cv::Mat kernel = cv::Mat::ones(3, 3, CV_8U);
   cv::Mat occupied_a = ternary_a == kOccupiedCell, near_a;
   cv::dilate(occupied_a, near_a, kernel);
@@ -84,7 +85,7 @@ SimilarityCounts SimilarityIndex::evaluate(const CellTransform& transform) const
 SearchResult SimilarityIndex::search(const CellTransform& transform, int radius,
                                      double rotation_step, int rotation_steps) const {
   SearchResult best;
-  best.counts.occupied_conflict = 1e300;  // J = -inf until something is evaluated
+  best.counts.occupied_conflict = 1e300;  // score = -inf until something is evaluated
   const int side = 2 * radius + 1;
   for (int k = -rotation_steps; k <= rotation_steps; ++k) {
     CellTransform candidate{transform.theta + k * rotation_step, transform.t};
@@ -95,7 +96,7 @@ SearchResult SimilarityIndex::search(const CellTransform& transform, int radius,
     for (int dy = 0; dy < side; ++dy)
       for (int dx = 0; dx < side; ++dx) {
         const SimilarityCounts& counts = per_offset[static_cast<size_t>(dy) * side + dx];
-        if (counts.J() > best.counts.J()) {
+        if (counts.score(disagreement_weight_) > best.counts.score(disagreement_weight_)) {
           best.counts = counts;
           best.transform = {candidate.theta, candidate.t + cv::Point2d(dx - radius, dy - radius)};
         }

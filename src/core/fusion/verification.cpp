@@ -27,8 +27,11 @@ double fusedEntropyIncrease(const SimilarityCounts& k) {
   return h_fused - 0.5 * (h_a + h_b);
 }
 
-Verdict verify(const SimilarityCounts& counts, double resolution, const VerificationParams& p) {
+Verdict verify(const SimilarityCounts& counts, double resolution, double distinctiveness,
+               double smaller_map_walls, const VerificationParams& p) {
   Verdict v;
+  v.shared_wall_fraction = smaller_map_walls > 0 ? counts.occupied_agree / smaller_map_walls : 0.0;
+  v.distinctiveness = distinctiveness;
   v.acceptance = counts.acceptance();
   v.wall_agreement = counts.wallAgreement();
   v.shared_wall_m = counts.occupied_agree * resolution;
@@ -37,12 +40,18 @@ Verdict verify(const SimilarityCounts& counts, double resolution, const Verifica
   why.precision(3);
   if (v.shared_wall_m < p.min_shared_wall_m)
     why << "too little shared wall (" << v.shared_wall_m << " m < " << p.min_shared_wall_m << " m)";
+  else if (v.shared_wall_fraction < p.min_shared_wall_fraction)
+    why << "too small a share of the smaller map's walls shared (" << v.shared_wall_fraction << " < "
+        << p.min_shared_wall_fraction << ")";
   else if (v.acceptance < p.min_acceptance)
     why << "acceptance index V " << v.acceptance << " < " << p.min_acceptance;
   else if (v.wall_agreement < p.min_wall_agreement)
     why << "wall agreement " << v.wall_agreement << " < " << p.min_wall_agreement;
   else if (v.entropy_increase > p.max_entropy_increase)
     why << "entropy increase " << v.entropy_increase << " bits > " << p.max_entropy_increase;
+  else if (v.distinctiveness < p.min_distinctiveness)
+    why << "ambiguous: displaced poses score nearly as well (distinctiveness " << v.distinctiveness
+        << " < " << p.min_distinctiveness << ")";
   v.reason = why.str();
   v.accepted = v.reason.empty();
   return v;
