@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -145,6 +146,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (!dump_dir.empty()) std::filesystem::create_directories(dump_dir);
   cv::setNumThreads(1);
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   fusion::FusionParams params;
@@ -246,7 +248,7 @@ int main(int argc, char** argv) {
   std::ofstream csv;
   if (!csv_path.empty()) {
     csv.open(csv_path);
-    csv << "tool,kind,band,overlap,pair,a_cells,b_cells,accepted,correct,yaw_err_deg,cells_err,time_ms,reason,V,wall_agreement,shared_wall_m,entropy_increase,distinctiveness,shared_wall_fraction\n";
+    csv << "tool,kind,band,overlap,pair,a_cells,b_cells,accepted,correct,yaw_err_deg,cells_err,time_ms,reason,V,wall_agreement,shared_wall_m,entropy_increase,distinctiveness,shared_wall_fraction,ambiguity\n";
   }
   for (const auto& [tool_name, tool] : tools) {
     std::map<std::string, std::vector<Outcome>> by_band;
@@ -260,7 +262,7 @@ int main(int argc, char** argv) {
             << p.a.width << "x" << p.a.height << "," << p.b.width << "x" << p.b.height << "," << o.accepted << ","
             << o.correct << "," << o.yaw_err_deg << "," << o.cells_err << "," << o.time_ms << ",\"" << o.reason << "\"," << o.verdict.acceptance << ","
             << o.verdict.wall_agreement << "," << o.verdict.shared_wall_m << "," << o.verdict.entropy_increase << ","
-            << o.verdict.distinctiveness << "," << o.verdict.shared_wall_fraction << "\n";
+            << o.verdict.distinctiveness << "," << o.verdict.shared_wall_fraction << "," << o.verdict.ambiguity << "\n";
     }
     std::printf("## %s\n\n| overlap | pairs | correct | rejected | wrong accepts | false accepts | median ms | p95 ms |\n"
                 "|---|---|---|---|---|---|---|---|\n", tool_name.c_str());
@@ -283,6 +285,7 @@ int main(int argc, char** argv) {
                   t[t.size() / 2], t[std::min(t.size() - 1, static_cast<size_t>(0.95 * t.size()))]);
     }
     std::sort(times.begin(), times.end());
+    if (times.empty()) continue;
     std::printf("| all overlapping | %d | %d (%.1f %%) | | %d | | %.0f | %.0f |\n\n", all_pairs, all_correct,
                 100.0 * all_correct / std::max(1, all_pairs), all_wrong, times[times.size() / 2],
                 times[std::min(times.size() - 1, static_cast<size_t>(0.95 * times.size()))]);

@@ -25,7 +25,7 @@ using mrslam::Pose2D;
 namespace fusion = mrslam::fusion;
 
 constexpr const char* kUsage =
-    "usage: mrslam_merge [--json] [-o merged.yaml [--png]] [--config fusion.yaml] A.yaml B.yaml [C.yaml ...]\n";
+    "usage: mrslam_merge [--json] [-o merged.yaml [--png]] [--config fusion.yaml] [--timing] A.yaml B.yaml [C.yaml ...]\n";
 
 int badInput(const std::string& message) {
   std::cerr << "mrslam_merge: " << message << "\n";
@@ -54,7 +54,7 @@ struct Outcome {
 int main(int argc, char** argv) {
   // Our own messages name the file and the problem; OpenCV's warnings would repeat them.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-  bool json = false, png = false;
+  bool json = false, png = false, timing = false;
   std::string output, config;
   std::vector<std::string> files;
   for (int i = 1; i < argc; ++i) {
@@ -63,6 +63,8 @@ int main(int argc, char** argv) {
       json = true;
     } else if (arg == "--png") {
       png = true;
+    } else if (arg == "--timing") {
+      timing = true;
     } else if (arg == "-o" || arg == "--config") {
       if (i + 1 >= argc) return badInput(arg + " needs a file name\n" + kUsage);
       (arg == "-o" ? output : config) = argv[++i];
@@ -115,6 +117,11 @@ int main(int argc, char** argv) {
           return badInput(files[i] + ": " + e.what());
         }
         outcomes[i].last = r;
+        if (timing) {
+          std::fprintf(stderr, "%s against %s:", files[i].c_str(), files[j].c_str());
+          for (const auto& [name, ms] : r.stage_ms) std::fprintf(stderr, " %s %.1f ms,", name.c_str(), ms);
+          std::fprintf(stderr, " total %.1f ms\n", r.time_ms);
+        }
         outcomes[i].time_ms += r.time_ms;
         if (r.accepted) {
           outcomes[i].pose_in_a = outcomes[j].pose_in_a->compose(r.pose);

@@ -17,6 +17,8 @@
 #pragma once
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "mrslam/fusion/cell_transform.h"
 #include "mrslam/fusion/segment_matching.h"
@@ -36,19 +38,21 @@ struct FusionParams {
 
   int spectrum_max_cells = 400;   // pyramid level used for Radon spectra
   double spectrum_step_deg = 1.0;
-  int rotation_candidates = 4;    // spectrum peaks; each is tried at alpha and alpha + 180 deg
-  int coarse_max_cells = 256;     // coarse pyramid level for the global search
-  int translation_peaks = 4;      // correlation peaks per rotation
+  int rotation_candidates = 3;    // spectrum peaks; each is tried at alpha and alpha + 180 deg
+  int coarse_max_cells = 256;     // coarse pyramid level where hypotheses are scored
+  int fourier_max_cells = 256;    // level of the Fourier translation search (>= coarse level)
+  int translation_peaks = 6;      // correlation peaks per rotation
 
-  int coarse_search_radius = 2;   // similarity search around each global hypothesis (coarse cells)
+  int coarse_search_radius = 1;   // similarity search around each Fourier hypothesis (coarse cells)
   int segment_search_radius = 10; // the paper's "ten cells" around a segment hypothesis
   double coarse_rotation_step_deg = 1.0;
+  int coarse_rotation_steps = 0;  // rotation steps either way when scoring Fourier hypotheses
   int refined_hypotheses = 3;     // best coarse hypotheses tuned down to full resolution
   double radon_window_deg = 2.0;  // Radon tuning searches +- this around the hypothesis
   double radon_step_deg = 0.1;
-  int refine_radius = 2;          // similarity search per finer level (cells of that level)
-  double polish_step_deg = 0.05;  // final full-resolution rotation step for the best hypothesis
-  int polish_steps = 4;           // ... searched over +- this many steps (and +- 1 cell)
+  int refine_radius = 1;          // similarity search per finer level (cells of that level)
+  bool chamfer_polish = true;     // sub-cell polish on A's wall distance transform
+  double chamfer_truncation = 2.0;  // cells; walls farther apart do not pull
   int max_free_points = 30000;    // free cells of B used per similarity evaluation
   double disagreement_weight = 10.0;  // ranking score agr - w * dis (w = 1: the paper's J)
 
@@ -63,6 +67,9 @@ struct FusionResult {
   Verdict verdict;
   int hypotheses = 0;    // hypotheses scored on the coarse level
   double time_ms = 0;
+  // Where the time went: preparation, rotation spectra, Fourier search, segments, coarse
+  // scoring, pyramid tuning, polish and verification (milliseconds each).
+  std::vector<std::pair<std::string, double>> stage_ms;
 };
 
 // Pose of B's map frame in A's map frame from a transform in A's cells (B resampled to A's

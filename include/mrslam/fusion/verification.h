@@ -9,7 +9,8 @@
 //    and as a share of the smaller map's walls: the merge must explain part of a map), and
 //    distinctiveness: the score must drop clearly when B is displaced (about a metre in any
 //    direction, or turned a few degrees). Two corridors overlay well at many shifts; a pose
-//    that is not a clear extremum is not evidence of where B is (cf. the paper's Fig. 10).
+//    that is not a clear extremum is not evidence of where B is (cf. the paper's Fig. 10);
+//    likewise a distinct alternative pose (another hypothesis) that scores nearly as well.
 #pragma once
 
 #include <string>
@@ -19,14 +20,15 @@
 namespace mrslam::fusion {
 
 struct VerificationParams {
-  double min_acceptance = 0.95;        // V
-  double min_wall_agreement = 0.60;    // share of B's obstacles in A's known space on A's obstacles
+  double min_acceptance = 0.97;        // V
+  double min_wall_agreement = 0.75;    // share of B's obstacles in A's known space on A's obstacles
   double min_shared_wall_m = 8.0;      // agreeing obstacle cells x resolution
   double min_shared_wall_fraction = 0.15;  // agreeing obstacle cells / obstacle cells of the smaller map
-  double max_entropy_increase = 0.20;  // bits: H(fused) - mean(H(A), H(B)) over the overlap
+  double max_entropy_increase = 0.15;  // bits: H(fused) - mean(H(A), H(B)) over the overlap
   double min_distinctiveness = 0.15;   // 1 - best displaced score / score
   double distinct_shift_m = 1.0;       // displacement used for distinctiveness
   double distinct_turn_deg = 3.0;      // rotation used for distinctiveness
+  double max_ambiguity = 0.95;         // best distinct alternative's score / best score
 };
 
 struct Verdict {
@@ -37,6 +39,7 @@ struct Verdict {
   double shared_wall_fraction = 0;
   double entropy_increase = 0;
   double distinctiveness = 0;
+  double ambiguity = 0;
   std::string reason;          // why it was rejected; empty when accepted
 };
 
@@ -44,8 +47,9 @@ struct Verdict {
 double fusedEntropyIncrease(const SimilarityCounts& counts);
 
 // `distinctiveness` is 1 - (best score of the displaced poses) / (score of the pose);
-// `smaller_map_walls` the number of obstacle cells of the map with fewer of them.
+// `smaller_map_walls` the number of obstacle cells of the map with fewer of them;
+// `ambiguity` the score of the best distinct alternative pose over the pose's score.
 Verdict verify(const SimilarityCounts& counts, double resolution, double distinctiveness,
-               double smaller_map_walls, const VerificationParams& params);
+               double smaller_map_walls, double ambiguity, const VerificationParams& params);
 
 }  // namespace mrslam::fusion

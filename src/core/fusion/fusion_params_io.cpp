@@ -44,15 +44,17 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
       {"rotation_candidates", bind(p.rotation_candidates)},
       {"coarse_max_cells", bind(p.coarse_max_cells)},
       {"translation_peaks", bind(p.translation_peaks)},
+      {"fourier_max_cells", bind(p.fourier_max_cells)},
       {"coarse_search_radius", bind(p.coarse_search_radius)},
       {"segment_search_radius", bind(p.segment_search_radius)},
       {"coarse_rotation_step_deg", bind(p.coarse_rotation_step_deg)},
+      {"coarse_rotation_steps", bind(p.coarse_rotation_steps)},
       {"refined_hypotheses", bind(p.refined_hypotheses)},
       {"radon_window_deg", bind(p.radon_window_deg)},
       {"radon_step_deg", bind(p.radon_step_deg)},
       {"refine_radius", bind(p.refine_radius)},
-      {"polish_step_deg", bind(p.polish_step_deg)},
-      {"polish_steps", bind(p.polish_steps)},
+      {"chamfer_polish", bind(p.chamfer_polish)},
+      {"chamfer_truncation", bind(p.chamfer_truncation)},
       {"max_free_points", bind(p.max_free_points)},
       {"disagreement_weight", bind(p.disagreement_weight)},
       {"max_resolution_ratio", bind(p.max_resolution_ratio)},
@@ -64,6 +66,7 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
       {"min_distinctiveness", bind(v.min_distinctiveness)},
       {"distinct_shift_m", bind(v.distinct_shift_m)},
       {"distinct_turn_deg", bind(v.distinct_turn_deg)},
+      {"max_ambiguity", bind(v.max_ambiguity)},
   };
   YAML::Node root;
   try {
@@ -86,7 +89,7 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
     }
   }
   if (p.segments.segment.points < 3 || p.segments.segment.distance_bins < 1 ||
-      p.segments.segment.arc_bins < 1 || p.coarse_max_cells < 16 || p.spectrum_max_cells < 16 ||
+      p.segments.segment.arc_bins < 1 || p.coarse_max_cells < 16 || p.fourier_max_cells < 16 || p.spectrum_max_cells < 16 ||
       p.refined_hypotheses < 1 || p.rotation_candidates < 1 || p.translation_peaks < 1 ||
       !(p.spectrum_step_deg > 0) || !(p.radon_step_deg > 0) || !(p.max_resolution_ratio >= 1))
     throw ParamsError(yaml_path + ": a parameter is out of range (see config/fusion.yaml)");

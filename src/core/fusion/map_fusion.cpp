@@ -4,9 +4,11 @@
 #include <chrono>
 #include <memory>
 #include <optional>
+#include <tuple>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "mrslam/fusion/chamfer_polish.h"
 #include "mrslam/fusion/correlation_search.h"
 #include "mrslam/fusion/radon.h"
 #include "mrslam/fusion/similarity_index.h"
@@ -85,6 +87,13 @@ std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params) 
 
 FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
   const auto start = std::chrono::steady_clock::now();
+  FusionResult result;
+  auto lap = start;
+  auto stage = [&](const char* name) {
+    const auto now = std::chrono::steady_clock::now();
+    result.stage_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - lap).count());
+    lap = now;
+  };
   for (const OccupancyGrid* g : {&a, &b}) {
     const std::string why = checkFusable(*g, params);
     if (!why.empty()) throw std::invalid_argument(std::string(g == &a ? "map A: " : "map B: ") + why);
@@ -102,19 +111,26 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
   }
 
   const int coarse = levelFor(ternary_a, ternary_b, params.coarse_max_cells);
+  const int fourier_level = std::max(coarse, levelFor(ternary_a, ternary_b, params.fourier_max_cells));
   const int spectrum_level = std::min(coarse, levelFor(ternary_a, ternary_b, params.spectrum_max_cells));
-  const std::vector<cv::Mat> pyr_a = pyramid(ternary_a, coarse + 1), pyr_b = pyramid(ternary_b, coarse + 1);
+  const std::vector<cv::Mat> pyr_a = pyramid(ternary_a, fourier_level + 1), pyr_b = pyramid(ternary_b, fourier_level + 1);
   const double coarse_scale = std::pow(2.0, coarse);
 
-  // Hypotheses on the coarse level, each with the radius of its similarity search.
-  std::vector<std::pair<CellTransform, int>> hypotheses;
-  const std::vector<cv::Point2f> spectrum_a = occupiedPoints(pyr_a[spectrum_level]);
-  const std::vector<cv::Point2f> spectrum_b = occupiedPoints(pyr_b[spectrum_level]);
-  const CorrelationSearch correlation(pyr_a[coarse], pyr_b[coarse], params.disagreement_weight);
-  for (double alpha : globalRotationCandidates(spectrum_a, spectrum_b, params.spectrum_step_deg * kDeg,
-                                               params.rotation_candidates))
-    for (const CellTransform& h : correlation.candidates(alpha, params.translation_peaks, 3))
-      hypotheses.emplace_back(h, params.coarse_search_radius);
+  stage("prepare");
+
+  // Hypotheses on the coarse level, each with the radius and rotation steps of its search.
+  std::vector<std::tuple<CellTransform, int, int>> hypotheses;
+  const std::vector<double> alphas =
+      globalRotationCandidates(occupiedPoints(pyr_a[spectrum_level]), occupiedPoints(pyr_b[spectrum_level]),
+                               params.spectrum_step_deg * kDeg, params.rotation_candidates);
+  stage("spectra");
+  const CorrelationSearch correlation(pyr_a[fourier_level], pyr_b[fourier_level], params.disagreement_weight);
+  const double fourier_to_coarse = std::pow(2.0, fourier_level - coarse);
+  for (double alpha : alphas)
+    for (const CellTransform& h : correlation.candidates(alpha, params.translation_peaks, 2))
+      hypotheses.emplace_back(h.scaled(1.0 / fourier_to_coarse), params.coarse_search_radius,
+                              params.coarse_rotation_steps);
+  stage("fourier");
   if (params.use_segments) {
     const int level = std::min(coarse, levelFor(ternary_a, ternary_b, params.segment_max_cells));
     std::mt19937 rng(params.seed);
@@ -123,20 +139,24 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
     const double to_coarse = std::pow(2.0, coarse - level);
     const int radius = std::max(1, static_cast<int>(std::ceil(params.segment_search_radius / to_coarse)));
     for (const CellTransform& h : segmentHypotheses(fa, fb, params.segments))
-      hypotheses.emplace_back(h.scaled(to_coarse), radius);
+      hypotheses.emplace_back(h.scaled(to_coarse), radius, 1);
   }
+  stage("segments");
 
-  FusionResult result;
   result.hypotheses = static_cast<int>(hypotheses.size());
   const SimilarityIndex coarse_index(pyr_a[coarse], pyr_b[coarse], params.max_free_points,
                                      params.disagreement_weight);
   const double coarse_step = params.coarse_rotation_step_deg * kDeg;
   std::vector<SearchResult> scored;
-  for (const auto& [h, radius] : hypotheses) scored.push_back(coarse_index.search(h, radius, coarse_step, 1));
+  // Fourier hypotheses come from a coarser level and get a small window search; segment
+  // hypotheses the paper's window and a rotation step either way (their angle is a line fit).
+  for (const auto& [h, radius, turns] : hypotheses)
+    scored.push_back(coarse_index.search(h, radius, coarse_step, turns));
   const double w = params.disagreement_weight;
   std::sort(scored.begin(), scored.end(), [w](const SearchResult& x, const SearchResult& y) {
     return x.counts.score(w) > y.counts.score(w);
   });
+  stage("coarse");
   std::vector<CellTransform> survivors;
   for (const SearchResult& s : scored) {
     if (static_cast<int>(survivors.size()) >= params.refined_hypotheses) break;
@@ -180,27 +200,48 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
       f = index.search(h, params.refine_radius, step, 1);
     }
   }
+  stage("pyramid");
   const SimilarityIndex& full = finest ? *finest : coarse_index;
   if (!finest) {
     for (SearchResult& f : finals) f.counts = full.evaluate(f.transform);
   }
 
+  // Polish every survivor before choosing: the pyramid ends with quarter-degree rotation
+  // steps (a cell or more at 30 m), enough for a symmetric impostor (ACES turned by 180
+  // degrees) to outscore the slightly misaligned truth. The sub-cell chamfer polish is kept
+  // where the similarity index does not object to it.
+  if (params.chamfer_polish && finest) {
+    const ChamferPolish chamfer(ternary_a, ternary_b, params.chamfer_truncation);
+    for (SearchResult& f : finals) {
+      const CellTransform polished = chamfer.polish(f.transform);
+      const SimilarityCounts counts = full.evaluate(polished);
+      if (counts.score(w) >= 0.98 * f.counts.score(w)) f = {polished, counts};
+    }
+  }
   const auto best = std::max_element(finals.begin(), finals.end(), [w](const SearchResult& x, const SearchResult& y) {
     return x.counts.score(w) < y.counts.score(w);
   });
   if (best == finals.end()) {
     result.verdict.reason = "no hypothesis found";
   } else {
-    // Polish the winner: the pyramid ends with quarter-degree rotation steps, which is a cell
-    // or more at 30 m from the pivot.
-    *best = full.search(best->transform, 1, params.polish_step_deg * kDeg, params.polish_steps);
+    // The best distinct alternative: a pose elsewhere that explains the maps nearly as well
+    // means we cannot tell where B is (symmetric buildings, repeated rooms).
+    double runner_up = 0.0;
+    const double distinct_cells = params.verification.distinct_shift_m / a.resolution;
+    for (const SearchResult& f : finals)
+      if (&f != &*best && !sameHypothesis(f.transform, best->transform, distinct_cells,
+                                          params.verification.distinct_turn_deg * kDeg))
+        runner_up = std::max(runner_up, f.counts.score(w));
+    const double ambiguity = best->counts.score(w) > 0 ? runner_up / best->counts.score(w) : 1.0;
+    stage("polish");
     result.cells = best->transform;
     const double walls_a = cv::countNonZero(ternary_a == kOccupiedCell);
     const double walls_b = cv::countNonZero(ternary_b == kOccupiedCell);
     result.verdict = verify(best->counts, a.resolution, distinctiveness(full, *best, a.resolution, params),
-                            std::min(walls_a, walls_b), params.verification);
+                            std::min(walls_a, walls_b), ambiguity, params.verification);
     result.accepted = result.verdict.accepted;
     result.pose = poseFromCells(a, b, result.cells);
+    stage("verify");
   }
   result.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
