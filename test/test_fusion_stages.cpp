@@ -6,6 +6,7 @@
 
 #include "mrslam/bench/pair_maker.h"
 #include "mrslam/fusion/approximate_pose.h"
+#include "mrslam/fusion/chamfer_polish.h"
 #include "mrslam/fusion/correlation_search.h"
 #include "mrslam/fusion/edge_smoothing.h"
 #include "mrslam/fusion/grid_merge.h"
@@ -293,6 +294,20 @@ TEST(CorrelationSearch, FindsAKnownTranslationAtAKnownRotation) {
     EXPECT_NEAR(std::remainder(best.theta - truth.theta, 2 * M_PI), 0.0, 1e-9);
     EXPECT_LE(cv::norm(best.t - b_to_a.t), 1.5) << asked;
   }
+}
+
+TEST(ChamferPolish, RecoversASubCellMisalignment) {
+  // A real crop against itself, started 0.4 degrees and 0.7 cells off: the polish must land
+  // within a tenth of a cell and a few hundredths of a degree, closer than the similarity
+  // index's one-cell tolerance can tell.
+  const cv::Mat t = intelCrop();
+  const ChamferPolish polish(t, t);
+  const CellTransform start{0.4 * kDeg, {0.7, -0.5}};
+  const CellTransform done = polish.polish(start);
+  EXPECT_NEAR(done.theta, 0.0, 0.03 * kDeg);
+  EXPECT_NEAR(done.t.x, 0.0, 0.1);
+  EXPECT_NEAR(done.t.y, 0.0, 0.1);
+  EXPECT_LT(polish.meanDistance(done), polish.meanDistance(start));
 }
 
 TEST(GridMerge, PlacesPiecesBackWhereTheyCameFrom) {
