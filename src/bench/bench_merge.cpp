@@ -218,12 +218,14 @@ int main(int argc, char** argv) {
   std::printf("# Map-merge benchmark (seed %u): %zu pairs built in %.0f s\n\n", seed, pairs.size(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t_gen).count());
 
+  std::map<std::string, std::vector<double>> stage_times;  // mrslam's time per stage
   using Tool = std::function<Outcome(const Pair&)>;
   std::vector<std::pair<std::string, Tool>> tools = {
       {"mrslam", [&](const Pair& p) {
          const auto r = fusion::alignMaps(p.a, p.b, params);
          Outcome o = judge(p, r.accepted, r.pose, r.time_ms);
          o.reason = r.verdict.reason;
+         for (const auto& [stage, ms] : r.stage_ms) stage_times[stage].push_back(ms);
          o.verdict = r.verdict;
          if (!dump_dir.empty() && !o.correct && p.kind != "none") {
            const std::string stem = dump_dir + "/pair" + std::to_string(&p - pairs.data());
@@ -289,6 +291,14 @@ int main(int argc, char** argv) {
     std::printf("| all overlapping | %d | %d (%.1f %%) | | %d | | %.0f | %.0f |\n\n", all_pairs, all_correct,
                 100.0 * all_correct / std::max(1, all_pairs), all_wrong, times[times.size() / 2],
                 times[std::min(times.size() - 1, static_cast<size_t>(0.95 * times.size()))]);
+    if (tool_name == "mrslam") {
+      std::printf("mrslam median ms per stage:");
+      for (auto& [stage, v] : stage_times) {
+        std::sort(v.begin(), v.end());
+        std::printf(" %s %.1f,", stage.c_str(), v[v.size() / 2]);
+      }
+      std::printf("\n\n");
+    }
     std::fflush(stdout);
   }
 

@@ -19,7 +19,7 @@ class ChamferPolish {
  public:
   // `truncation` (cells): B's wall cells farther than this from A's walls are ignored.
   ChamferPolish(const cv::Mat& ternary_a, const cv::Mat& ternary_b, double truncation = 2.0,
-                int max_points = 6000);
+                int max_points = 4000);
 
   CellTransform polish(const CellTransform& start, int iterations = 20) const;
 

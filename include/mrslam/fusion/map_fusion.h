@@ -49,7 +49,8 @@ struct FusionParams {
   int coarse_rotation_steps = 0;  // rotation steps either way when scoring Fourier hypotheses
   int refined_hypotheses = 3;     // best coarse hypotheses tuned down to full resolution
   double radon_window_deg = 2.0;  // Radon tuning searches +- this around the hypothesis
-  double radon_step_deg = 0.1;
+  double radon_step_deg = 0.25;
+  int radon_peaks = 4;            // A's strongest line directions used by the tuning
   int refine_radius = 1;          // similarity search per finer level (cells of that level)
   bool chamfer_polish = true;     // sub-cell polish on A's wall distance transform
   double chamfer_truncation = 2.0;  // cells; walls farther apart do not pull

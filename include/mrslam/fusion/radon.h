@@ -32,7 +32,8 @@ double radonRotationTuning(const std::vector<cv::Point2f>& points_a,
 // computed once for many hypotheses about B.
 class RadonTuner {
  public:
-  RadonTuner(const std::vector<cv::Point2f>& points_a, double window, double step);
+  // `peaks`: how many of A's strongest line directions take part.
+  RadonTuner(const std::vector<cv::Point2f>& points_a, double window, double step, int peaks = 8);
   double tune(const std::vector<cv::Point2f>& points_b_rotated) const;
 
  private:

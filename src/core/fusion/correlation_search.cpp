@@ -13,7 +13,9 @@ cv::Mat spectrum(const cv::Mat& image, cv::Size padded) {
   cv::Mat f = cv::Mat::zeros(padded, CV_32F);
   image.convertTo(f(cv::Rect(0, 0, image.cols, image.rows)), CV_32F);
   cv::Mat out;
-  cv::dft(f, out);  // packed (CCS) spectrum of a real image: half the work of a complex one
+  // Packed (CCS) spectrum of a real image: half the work of a complex one; the rows below the
+  // image are zero padding, which nonzeroRows lets the row pass skip.
+  cv::dft(f, out, 0, image.rows);
   return out;
 }
 

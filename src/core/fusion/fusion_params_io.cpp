@@ -52,6 +52,7 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
       {"refined_hypotheses", bind(p.refined_hypotheses)},
       {"radon_window_deg", bind(p.radon_window_deg)},
       {"radon_step_deg", bind(p.radon_step_deg)},
+      {"radon_peaks", bind(p.radon_peaks)},
       {"refine_radius", bind(p.refine_radius)},
       {"chamfer_polish", bind(p.chamfer_polish)},
       {"chamfer_truncation", bind(p.chamfer_truncation)},

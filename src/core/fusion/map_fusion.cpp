@@ -112,6 +112,7 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
 
   const int coarse = levelFor(ternary_a, ternary_b, params.coarse_max_cells);
   const int fourier_level = std::max(coarse, levelFor(ternary_a, ternary_b, params.fourier_max_cells));
+  // Rotation spectra want angular detail: the finest level within spectrum_max_cells.
   const int spectrum_level = std::min(coarse, levelFor(ternary_a, ternary_b, params.spectrum_max_cells));
   const std::vector<cv::Mat> pyr_a = pyramid(ternary_a, fourier_level + 1), pyr_b = pyramid(ternary_b, fourier_level + 1);
   const double coarse_scale = std::pow(2.0, coarse);
@@ -166,6 +167,26 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
     if (!duplicate) survivors.push_back(s.transform);
   }
 
+  // Stage 7, once per survivor on the coarse level: Radon rotation tuning, kept only where the
+  // similarity index agrees it is better (the pyramid and the polish refine further).
+  {
+    const RadonTuner radon(occupiedPoints(pyr_a[coarse]), params.radon_window_deg * kDeg,
+                           params.radon_step_deg * kDeg, params.radon_peaks);
+    const std::vector<cv::Point2f> points_b = occupiedPoints(pyr_b[coarse]);
+    cv::Point2d pivot;
+    for (const auto& p : points_b) pivot += cv::Point2d(p);
+    pivot /= static_cast<double>(std::max<size_t>(1, points_b.size()));
+    std::vector<cv::Point2f> rotated(points_b.size());
+    for (CellTransform& h : survivors) {
+      const CellTransform rotation{h.theta, {0, 0}};
+      for (size_t k = 0; k < points_b.size(); ++k) rotated[k] = cv::Point2f(rotation.apply(points_b[k]));
+      const CellTransform tuned = turned(h, radon.tune(rotated), pivot);
+      if (coarse_index.search(tuned, 1, 0, 0).counts.score(w) > coarse_index.search(h, 1, 0, 0).counts.score(w))
+        h = tuned;
+    }
+  }
+  stage("radon");
+
   // Tune the survivors level by level down to full resolution.
   std::unique_ptr<SimilarityIndex> finest;
   std::vector<SearchResult> finals(survivors.size());
@@ -173,32 +194,15 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
   for (int level = coarse - 1; level >= 0; --level) {
     finest = std::make_unique<SimilarityIndex>(pyr_a[level], pyr_b[level], params.max_free_points,
                                                params.disagreement_weight);
-    const SimilarityIndex& index = *finest;
     const double step = coarse_step / std::pow(2.0, coarse - level);
-    std::vector<cv::Point2f> points_b;
-    std::optional<RadonTuner> radon;
-    cv::Point2d pivot;
-    if (level == spectrum_level) {
-      radon.emplace(occupiedPoints(pyr_a[level]), params.radon_window_deg * kDeg, params.radon_step_deg * kDeg);
-      points_b = occupiedPoints(pyr_b[level]);
-      for (const auto& p : points_b) pivot += cv::Point2d(p);
-      pivot /= static_cast<double>(std::max<size_t>(1, points_b.size()));
-    }
-    for (SearchResult& f : finals) {
-      CellTransform h = f.transform.scaled(0.5);
-      if (level == spectrum_level) {
-        // Stage 7: Radon tuning; kept only if the similarity index agrees it is better.
-        std::vector<cv::Point2f> rotated(points_b.size());
-        const CellTransform rotation{h.theta, {0, 0}};
-        for (size_t k = 0; k < points_b.size(); ++k) rotated[k] = cv::Point2f(rotation.apply(points_b[k]));
-        const double delta = radon->tune(rotated);
-        const CellTransform tuned = turned(h, delta, pivot);
-        if (index.search(tuned, params.refine_radius, 0, 0).counts.score(w) >
-            index.search(h, params.refine_radius, 0, 0).counts.score(w))
-          h = tuned;
-      }
-      f = index.search(h, params.refine_radius, step, 1);
-    }
+    for (SearchResult& f : finals) f = finest->search(f.transform.scaled(0.5), params.refine_radius, step, 1);
+    // A survivor scoring under half of the best can neither win nor make the pose ambiguous
+    // (max_ambiguity is far above that): stop spending finer levels on it.
+    double top = -1e300;
+    for (const SearchResult& f : finals) top = std::max(top, f.counts.score(w));
+    finals.erase(std::remove_if(finals.begin(), finals.end(),
+                                [&](const SearchResult& f) { return top > 0 && f.counts.score(w) < 0.5 * top; }),
+                 finals.end());
   }
   stage("pyramid");
   const SimilarityIndex& full = finest ? *finest : coarse_index;

@@ -28,11 +28,11 @@ std::vector<double> radonLineEnergy(const std::vector<cv::Point2f>& points, doub
   return energy;
 }
 
-RadonTuner::RadonTuner(const std::vector<cv::Point2f>& points_a, double window, double step)
+RadonTuner::RadonTuner(const std::vector<cv::Point2f>& points_a, double window, double step, int peaks)
     : step_(step), half_(static_cast<int>(std::ceil(window / step))) {
   // The strongest line directions of A (local maxima of a 1-degree spectrum) decide; the fine
   // spectra are computed only around them.
-  constexpr int kCoarse = 180, kPeaks = 8;
+  constexpr int kCoarse = 180;
   const double coarse_step = M_PI / kCoarse;
   const std::vector<double> coarse = radonLineEnergy(points_a, 0.0, coarse_step, kCoarse);
   std::vector<std::pair<double, int>> maxima;
@@ -40,7 +40,7 @@ RadonTuner::RadonTuner(const std::vector<cv::Point2f>& points_a, double window, 
     if (coarse[k] >= coarse[(k + 1) % kCoarse] && coarse[k] > coarse[(k + kCoarse - 1) % kCoarse])
       maxima.emplace_back(coarse[k], k);
   std::sort(maxima.rbegin(), maxima.rend());
-  for (size_t i = 0; i < maxima.size() && i < kPeaks; ++i) {
+  for (size_t i = 0; i < maxima.size() && static_cast<int>(i) < peaks; ++i) {
     if (maxima[i].first < 0.25 * maxima.front().first) break;
     const double centre = maxima[i].second * coarse_step;
     peaks_.push_back({centre, radonLineEnergy(points_a, centre - half_ * step_, step_, 2 * half_ + 1)});
