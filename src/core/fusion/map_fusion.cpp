@@ -229,14 +229,21 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
     result.verdict.reason = "no hypothesis found";
   } else {
     // The best distinct alternative: a pose elsewhere that explains the maps nearly as well
-    // means we cannot tell where B is (symmetric buildings, repeated rooms).
-    double runner_up = 0.0;
+    // means we cannot tell where B is (symmetric buildings, repeated rooms). The comparison is
+    // made with the disagreement weight w and again with 2w: a choice that flips when
+    // conflicts count double (a small clean overlap against a larger one with a few percent
+    // of conflicts, e.g. ACES and its half-turn twin) is not a choice we can stand behind.
+    double ambiguity = best->counts.score(w) > 0 ? 0.0 : 1.0;
     const double distinct_cells = params.verification.distinct_shift_m / a.resolution;
-    for (const SearchResult& f : finals)
-      if (&f != &*best && !sameHypothesis(f.transform, best->transform, distinct_cells,
-                                          params.verification.distinct_turn_deg * kDeg))
-        runner_up = std::max(runner_up, f.counts.score(w));
-    const double ambiguity = best->counts.score(w) > 0 ? runner_up / best->counts.score(w) : 1.0;
+    for (const SearchResult& f : finals) {
+      if (&f == &*best || sameHypothesis(f.transform, best->transform, distinct_cells,
+                                         params.verification.distinct_turn_deg * kDeg))
+        continue;
+      for (const double weight : {w, 2 * w}) {
+        const double best_score = best->counts.score(weight);
+        ambiguity = std::max(ambiguity, best_score > 0 ? f.counts.score(weight) / best_score : 1.0);
+      }
+    }
     stage("polish");
     result.cells = best->transform;
     const double walls_a = cv::countNonZero(ternary_a == kOccupiedCell);
