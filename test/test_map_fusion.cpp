@@ -34,18 +34,8 @@ PoseError poseError(const OccupancyGrid& b, const Pose2D& estimate, const Pose2D
           std::hypot(ex - tx, ey - ty) / b.resolution};
 }
 
-struct RunResult {
-  int status;
-  std::string output;
-};
-RunResult run(const std::string& args) {
-  const std::string cmd = std::string(MRSLAM_MERGE_BIN) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof(buf), pipe)) out.append(buf, n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+test::RunResult run(const std::string& args) {
+  return test::runCommand(std::string(MRSLAM_MERGE_BIN) + " " + args);
 }
 
 fs::path tempDir() {
@@ -132,7 +122,7 @@ TEST(MergeCli, JsonOutputAndMergedMapForARealPair) {
   const Pose2D truth{-30.0, 12.0, 250.0 * kDeg};
   saveMap(bench::cropGrid(intel, 0, 0, 500, 761), (dir / "a.yaml").string());
   saveMap(bench::reframeGrid(bench::cropGrid(intel, 314, 0, 500, 761), truth), (dir / "b.yaml").string());
-  const RunResult r = run("--json -o " + (dir / "merged.yaml").string() + " " + (dir / "a.yaml").string() +
+  const test::RunResult r = run("--json -o " + (dir / "merged.yaml").string() + " " + (dir / "a.yaml").string() +
                           " " + (dir / "b.yaml").string());
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("\"accepted\": true"), std::string::npos) << r.output;
@@ -148,7 +138,7 @@ TEST(MergeCli, JsonOutputAndMergedMapForARealPair) {
 }
 
 TEST(MergeCli, RejectedMergeIsNotAnError) {
-  const RunResult r = run("--json " + test::referenceMap("intel") + " " + test::referenceMap("freiburg-079"));
+  const test::RunResult r = run("--json " + test::referenceMap("intel") + " " + test::referenceMap("freiburg-079"));
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("\"accepted\": false"), std::string::npos) << r.output;
 }
@@ -177,7 +167,7 @@ TEST(MergeCli, BadInputGivesOneLineNamingTheFileAndExitTwo) {
       {(dir / "size_mismatch.yaml").string(), "short.pgm"},
   };
   for (const auto& [file, problem] : cases) {
-    const RunResult r = run(good + " " + file);
+    const test::RunResult r = run(good + " " + file);
     EXPECT_EQ(r.status, 2) << file << ": " << r.output;
     EXPECT_NE(r.output.find(problem), std::string::npos) << r.output;
     EXPECT_NE(r.output.find(fs::path(file).filename().string()), std::string::npos) << r.output;

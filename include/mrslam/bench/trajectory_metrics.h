@@ -1,0 +1,32 @@
+// Trajectory accuracy in the spirit of Kümmerle et al. 2009 ("On measuring the accuracy of
+// SLAM algorithms"): errors of relative motions between pairs of scans, which do not depend
+// on the frame either trajectory is expressed in.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mrslam/grid.h"
+
+namespace mrslam::bench {
+
+struct RelationError {
+  double trans_mean = 0, trans_std = 0;  // m
+  double rot_mean = 0, rot_std = 0;      // rad
+  size_t count = 0;
+};
+
+// Error of every relation (i, j): |(est_i^-1 est_j) ⊖ (ref_i^-1 ref_j)|, translation and angle.
+RelationError relationError(const std::vector<Pose2D>& estimate, const std::vector<Pose2D>& reference,
+                            const std::vector<std::pair<size_t, size_t>>& pairs);
+
+// (i, i + step) for every i.
+std::vector<std::pair<size_t, size_t>> consecutivePairs(size_t n, size_t step);
+// `count` pairs of distinct scans drawn with a fixed seed.
+std::vector<std::pair<size_t, size_t>> randomPairs(size_t n, size_t count, unsigned seed);
+
+// Reads "timestamp x y yaw" lines; throws std::runtime_error naming the line on bad input.
+std::vector<std::pair<double, Pose2D>> readTrajectory(const std::string& path);
+
+}  // namespace mrslam::bench

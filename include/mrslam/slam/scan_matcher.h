@@ -1,0 +1,62 @@
+// Laser scan matching against a local map of recent scans (scan-to-map), with MRPT's ICP.
+// The local map holds the returns of the last `keyframes` key scans in the robot's map
+// frame; a scan becomes a key scan when the robot has moved or turned enough since the
+// last one, so the reference keeps its shape while the robot stands still.
+#pragma once
+
+#include <Eigen/Core>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mrslam/grid.h"
+#include "mrslam/slam/laser_scan.h"
+
+namespace mrslam::slam {
+
+struct ScanMatcherParams {
+  int keyframes = 40;                 // key scans in the local map
+  double keyframe_distance = 0.3;     // m moved before a new key scan
+  double keyframe_angle = 0.26;       // rad turned before a new key scan (15 degrees)
+  double max_correspondence = 0.5;    // m, ICP's initial matching distance (halved on convergence)
+  double min_correspondence = 0.03;   // m, ICP's final matching distance
+  int max_iterations = 60;
+  double min_point_spacing = 0.02;    // m: returns closer than this to the last kept one are skipped
+  double min_goodness = 0.3;          // share of points with a correspondence to accept a match
+  double min_sigma_xy = 0.01;         // m, floor of the reported standard deviation
+  double min_sigma_yaw = 0.003;       // rad, floor of the reported standard deviation
+  double covariance_scale = 1.0;      // multiplies ICP's covariance (ICP is overconfident)
+};
+
+struct ScanMatch {
+  bool ok = false;
+  std::string reason;       // why not ok
+  Pose2D pose;              // base_link in the map frame
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+  double goodness = 0.0;    // share of points that found a correspondence
+  int iterations = 0;
+};
+
+class ScanToMapMatcher {
+ public:
+  ScanToMapMatcher(const ScanMatcherParams& params, const Pose2D& laser_in_base);
+  ~ScanToMapMatcher();
+
+  bool empty() const { return keys_.empty(); }
+  // Aligns the scan to the local map, starting from `guess` (base_link in map).
+  ScanMatch match(const LaserScan& scan, const Pose2D& guess) const;
+  // Adds the scan at `pose` as a key scan when it is far enough from the last one (or the
+  // map is empty). Returns true when it was added.
+  bool addIfKey(const LaserScan& scan, const Pose2D& pose);
+  void clear();
+
+ private:
+  struct Impl;
+  ScanMatcherParams params_;
+  Pose2D laser_in_base_;
+  std::deque<std::pair<Pose2D, std::vector<std::pair<float, float>>>> keys_;  // pose, points in map
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mrslam::slam

@@ -1,0 +1,75 @@
+// mrslam_bench_slam_eval LOG [LABEL=TRAJECTORY ...]: accuracy of trajectories against the
+// reference poses of a corrected CARMEN log (Kümmerle et al. 2009 relations), beside the raw
+// wheel odometry chained from the log's ODOM lines. Prints markdown table rows:
+//   | log | method | 1-step m | 1-step deg | 10-step m | 10-step deg | global m | global deg |
+// Trajectory lines are matched to the log's scans by time stamp, in order.
+#include <cstdio>
+#include <iostream>
+#include <string>
+
+#include "mrslam/bench/trajectory_metrics.h"
+#include "mrslam/slam/robot_log.h"
+
+namespace {
+
+using mrslam::Pose2D;
+namespace bench = mrslam::bench;
+
+std::string cell(double mean, double std, double scale, int precision) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.*f ± %.*f", precision, mean * scale, precision, std * scale);
+  return buffer;
+}
+
+void row(const std::string& log_name, const std::string& label, const std::vector<Pose2D>& estimate,
+         const std::vector<Pose2D>& reference) {
+  const double deg = 180.0 / M_PI;
+  const auto one = bench::relationError(estimate, reference, bench::consecutivePairs(reference.size(), 1));
+  const auto ten = bench::relationError(estimate, reference, bench::consecutivePairs(reference.size(), 10));
+  const auto global = bench::relationError(estimate, reference, bench::randomPairs(reference.size(), 500, 2009));
+  std::cout << "| " << log_name << " | " << label << " | " << cell(one.trans_mean, one.trans_std, 1, 3) << " | "
+            << cell(one.rot_mean, one.rot_std, deg, 2) << " | " << cell(ten.trans_mean, ten.trans_std, 1, 3) << " | "
+            << cell(ten.rot_mean, ten.rot_std, deg, 2) << " | " << cell(global.trans_mean, global.trans_std, 1, 2)
+            << " | " << cell(global.rot_mean, global.rot_std, deg, 1) << " |\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << "usage: mrslam_bench_slam_eval LOG [LABEL=TRAJECTORY ...]\n";
+    return 2;
+  }
+  try {
+    const auto log = mrslam::slam::readRobotLog(argv[1]);
+    if (!log.records.front().has_reference) throw std::runtime_error(std::string(argv[1]) + ": no reference poses");
+    std::string name = argv[1];
+    name = name.substr(name.find_last_of('/') + 1);
+    name = name.substr(0, name.find('.'));
+    std::vector<Pose2D> reference;
+    for (const auto& r : log.records) reference.push_back(r.reference);
+    row(name, "odometry (raw, ODOM lines)", mrslam::slam::chainOdometry(log), reference);
+    for (int i = 2; i < argc; ++i) {
+      const std::string arg = argv[i];
+      const size_t eq = arg.find('=');
+      if (eq == std::string::npos) throw std::runtime_error("expected LABEL=TRAJECTORY, got " + arg);
+      const auto trajectory = bench::readTrajectory(arg.substr(eq + 1));
+      // Match by time stamp, in order: scans the run did not use drop out of both sides.
+      std::vector<Pose2D> estimate, matched_reference;
+      size_t k = 0;
+      for (const auto& [stamp, pose] : trajectory) {
+        while (k < log.records.size() && log.records[k].scan.stamp != stamp) ++k;
+        if (k == log.records.size()) throw std::runtime_error(arg + ": time stamp " + std::to_string(stamp) + " not in the log (or out of order)");
+        estimate.push_back(pose);
+        matched_reference.push_back(reference[k++]);
+      }
+      if (estimate.size() < log.records.size())
+        std::cerr << arg << ": " << log.records.size() - estimate.size() << " scans not in the trajectory\n";
+      row(name, arg.substr(0, eq), estimate, matched_reference);
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "mrslam_bench_slam_eval: " << e.what() << "\n";
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,68 @@
+#include "mrslam/bench/trajectory_metrics.h"
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+namespace mrslam::bench {
+
+RelationError relationError(const std::vector<Pose2D>& estimate, const std::vector<Pose2D>& reference,
+                            const std::vector<std::pair<size_t, size_t>>& pairs) {
+  RelationError e;
+  double t2 = 0, r2 = 0;
+  for (const auto& [i, j] : pairs) {
+    if (i >= estimate.size() || j >= estimate.size() || i >= reference.size() || j >= reference.size()) continue;
+    const Pose2D d_est = estimate[i].inverse().compose(estimate[j]);
+    const Pose2D d_ref = reference[i].inverse().compose(reference[j]);
+    const Pose2D err = d_ref.inverse().compose(d_est);
+    const double t = std::hypot(err.x, err.y), r = std::abs(err.yaw);
+    e.trans_mean += t, t2 += t * t, e.rot_mean += r, r2 += r * r;
+    ++e.count;
+  }
+  if (e.count == 0) return e;
+  const double n = static_cast<double>(e.count);
+  e.trans_mean /= n, e.rot_mean /= n;
+  e.trans_std = std::sqrt(std::max(0.0, t2 / n - e.trans_mean * e.trans_mean));
+  e.rot_std = std::sqrt(std::max(0.0, r2 / n - e.rot_mean * e.rot_mean));
+  return e;
+}
+
+std::vector<std::pair<size_t, size_t>> consecutivePairs(size_t n, size_t step) {
+  std::vector<std::pair<size_t, size_t>> pairs;
+  for (size_t i = 0; i + step < n; ++i) pairs.emplace_back(i, i + step);
+  return pairs;
+}
+
+std::vector<std::pair<size_t, size_t>> randomPairs(size_t n, size_t count, unsigned seed) {
+  std::vector<std::pair<size_t, size_t>> pairs;
+  if (n < 2) return pairs;
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<size_t> pick(0, n - 1);
+  while (pairs.size() < count) {
+    const size_t i = pick(rng), j = pick(rng);
+    if (i != j) pairs.emplace_back(std::min(i, j), std::max(i, j));
+  }
+  return pairs;
+}
+
+std::vector<std::pair<double, Pose2D>> readTrajectory(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::vector<std::pair<double, Pose2D>> out;
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    double t;
+    Pose2D p;
+    if (!(fields >> t >> p.x >> p.y >> p.yaw)) throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'timestamp x y yaw'");
+    out.emplace_back(t, p);
+  }
+  return out;
+}
+
+}  // namespace mrslam::bench

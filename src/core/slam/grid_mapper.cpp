@@ -1,0 +1,88 @@
+#include "mrslam/slam/grid_mapper.h"
+
+#include <mrpt/maps/COccupancyGridMap2D.h>
+#include <mrpt/obs/CObservation2DRangeScan.h>
+#include <mrpt/poses/CPose3D.h>
+
+namespace mrslam::slam {
+
+struct GridMapper::Impl {
+  mrpt::maps::COccupancyGridMap2D map;
+};
+
+GridMapper::GridMapper(const GridMapperParams& params, const Pose2D& laser_in_base)
+    : params_(params), laser_in_base_(laser_in_base), impl_(std::make_unique<Impl>()) {
+  clear();
+}
+
+GridMapper::~GridMapper() = default;
+
+void GridMapper::clear() {
+  const float half = static_cast<float>(params_.initial_size / 2);
+  auto& map = impl_->map;
+  map.setSize(-half, half, -half, half, static_cast<float>(params_.resolution), 0.5f);
+  auto& o = map.insertionOptions;
+  o.maxDistanceInsertion = static_cast<float>(params_.max_insert_range);
+  o.maxOccupancyUpdateCertainty = static_cast<float>(params_.occupied_update);
+  o.maxFreenessUpdateCertainty = static_cast<float>(1.0 - params_.free_update);
+  o.considerInvalidRangesAsFreeSpace = false;  // a NaN or "no return" says nothing
+  o.wideningBeamsWithDistance = false;
+  ++version_;
+}
+
+void GridMapper::insert(const LaserScan& scan, const Pose2D& pose) {
+  if (!scanProblem(scan).empty() || scan.ranges.size() < 2) return;
+  // MRPT spreads the rays evenly over an aperture centred on the sensor's x axis, so the
+  // sensor pose is turned to the centre of our scan's angular span.
+  mrpt::obs::CObservation2DRangeScan obs;
+  const size_t n = scan.ranges.size();
+  const double span = scan.angle_increment * (n - 1);
+  obs.aperture = static_cast<float>(std::abs(span));
+  obs.rightToLeft = span > 0;
+  obs.maxRange = static_cast<float>(scan.range_max);
+  obs.resizeScan(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float r = scan.ranges[i];
+    const bool valid = std::isfinite(r) && r >= scan.range_min && r < scan.range_max;
+    obs.setScanRange(i, valid ? r : 0.0f);
+    obs.setScanRangeValidity(i, valid);
+  }
+  const Pose2D sensor = laser_in_base_.compose(Pose2D{0, 0, scan.angle_min + span / 2});
+  obs.sensorPose = mrpt::poses::CPose3D(sensor.x, sensor.y, 0, sensor.yaw, 0, 0);
+  const mrpt::poses::CPose3D robot(pose.x, pose.y, 0, pose.yaw, 0, 0);
+  impl_->map.insertObservation(obs, robot);
+  ++version_;
+}
+
+GridGeometry GridMapper::geometry() const {
+  const auto& map = impl_->map;
+  GridGeometry g;
+  g.width = static_cast<int>(map.getSizeX());
+  g.height = static_cast<int>(map.getSizeY());
+  g.resolution = map.getResolution();
+  g.origin = {map.getXMin(), map.getYMin(), 0.0};
+  return g;
+}
+
+void GridMapper::exportCells(int8_t* cells) const {
+  const auto& raw = impl_->map.getRawMap();
+  for (size_t i = 0; i < raw.size(); ++i) {
+    // Log-odds 0 is a cell no ray has touched (updates never land exactly on 0 in practice).
+    cells[i] = raw[i] == 0 ? OccupancyGrid::kUnknown
+                           : static_cast<int8_t>(std::lround(100.0f * (1.0f - mrpt::maps::COccupancyGridMap2D::l2p(raw[i]))));
+  }
+}
+
+OccupancyGrid GridMapper::toGrid() const {
+  const GridGeometry g = geometry();
+  OccupancyGrid grid;
+  grid.width = g.width;
+  grid.height = g.height;
+  grid.resolution = g.resolution;
+  grid.origin = g.origin;
+  grid.data.resize(static_cast<size_t>(g.width) * g.height);
+  exportCells(grid.data.data());
+  return grid;
+}
+
+}  // namespace mrslam::slam

@@ -1,0 +1,79 @@
+#include "mrslam/slam/robot_params.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+
+namespace mrslam::slam {
+
+std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
+  MotionNoise& m = p.motion;
+  ScanMatcherParams& s = p.matcher;
+  GridMapperParams& g = p.grid;
+  return {
+      {"odom_trans_per_trans", &m.trans_per_trans},
+      {"odom_trans_per_rot", &m.trans_per_rot},
+      {"odom_rot_per_trans", &m.rot_per_trans},
+      {"odom_rot_per_rot", &m.rot_per_rot},
+      {"odom_floor_trans", &m.floor_trans},
+      {"odom_floor_rot", &m.floor_rot},
+      {"max_odometry_jump", &p.max_odometry_jump},
+      {"use_scan_matching", &p.use_scan_matching},
+      {"use_imu", &p.use_imu},
+      {"icp_keyframes", &s.keyframes},
+      {"icp_keyframe_distance", &s.keyframe_distance},
+      {"icp_keyframe_angle", &s.keyframe_angle},
+      {"icp_max_correspondence", &s.max_correspondence},
+      {"icp_min_correspondence", &s.min_correspondence},
+      {"icp_max_iterations", &s.max_iterations},
+      {"icp_min_point_spacing", &s.min_point_spacing},
+      {"icp_min_goodness", &s.min_goodness},
+      {"icp_min_sigma_xy", &s.min_sigma_xy},
+      {"icp_min_sigma_yaw", &s.min_sigma_yaw},
+      {"icp_covariance_scale", &s.covariance_scale},
+      {"map_resolution", &g.resolution},
+      {"map_initial_size", &g.initial_size},
+      {"map_max_insert_range", &g.max_insert_range},
+      {"map_occupied_update", &g.occupied_update},
+      {"map_free_update", &g.free_update},
+      {"map_update_distance", &p.map_update_distance},
+      {"map_update_angle", &p.map_update_angle},
+  };
+}
+
+const std::vector<std::string>& rosLayerParamNames() {
+  static const std::vector<std::string> names = {
+      "map_frame", "odom_frame", "base_frame", "publish_tf", "transform_tolerance",
+      "map_publish_rate", "max_time_jump", "diagnostics_period"};
+  return names;
+}
+
+RobotSlamParams loadRobotSlamParams(const std::string& yaml_path) {
+  const auto& ignored = rosLayerParamNames();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(yaml_path);
+  } catch (const std::exception& e) {
+    throw RobotParamsError(yaml_path + ": " + e.what());
+  }
+  RobotSlamParams p;
+  if (root.IsNull()) return p;
+  if (!root.IsMap()) throw RobotParamsError(yaml_path + ": expected a map of parameters");
+  auto named = robotSlamParams(p);
+  for (const auto& kv : root) {
+    const std::string key = kv.first.as<std::string>();
+    if (std::find(ignored.begin(), ignored.end(), key) != ignored.end()) continue;
+    auto it = std::find_if(named.begin(), named.end(), [&](const NamedParam& n) { return n.name == key; });
+    if (it == named.end()) throw RobotParamsError(yaml_path + ": unknown parameter '" + key + "'");
+    try {
+      std::visit([&](auto* field) { *field = kv.second.as<std::remove_pointer_t<decltype(field)>>(); }, it->field);
+    } catch (const std::exception&) {
+      throw RobotParamsError(yaml_path + ": bad value for '" + key + "'");
+    }
+  }
+  if (!(p.grid.resolution > 0) || p.matcher.keyframes < 1 || p.matcher.max_iterations < 1)
+    throw RobotParamsError(yaml_path + ": map_resolution must be > 0, icp_keyframes and icp_max_iterations >= 1");
+  return p;
+}
+
+}  // namespace mrslam::slam

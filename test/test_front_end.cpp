@@ -1,0 +1,269 @@
+// Front end of one robot: EKF against hand-computed values, log readers on the real logs,
+// ICP on real consecutive scans, grid updates, and the whole cascade on a real log excerpt.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "mrslam/bench/trajectory_metrics.h"
+#include "mrslam/slam/ekf2d.h"
+#include "mrslam/slam/grid_mapper.h"
+#include "mrslam/slam/robot_log.h"
+#include "mrslam/slam/robot_params.h"
+#include "mrslam/slam/robot_slam.h"
+#include "mrslam/slam/scan_matcher.h"
+#include "mrslam/slam/simulated_gyro.h"
+#include "test_data.h"
+
+namespace mrslam::slam {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+const RobotLog& intelLog() {
+  static const RobotLog log = readRobotLog(test::dataPath("logs/carmen_corrected/intel-corrected.log.gz"));
+  return log;
+}
+
+TEST(Ekf2D, PredictMatchesHandComputedMeanAndCovariance) {
+  MotionNoise noise;  // defaults: 0.2 m/m, 0.05 m/rad, 0.2 rad/m, 0.3 rad/rad, floors 0.02 m, 0.01 rad
+  Ekf2D ekf(noise);
+  ekf.reset({1.0, 2.0, M_PI / 2}, Eigen::Matrix3d::Zero());
+  ekf.predict({1.0, 0.0, 0.0});
+  EXPECT_NEAR(ekf.pose().x, 1.0, 1e-12);
+  EXPECT_NEAR(ekf.pose().y, 3.0, 1e-12);
+  EXPECT_NEAR(ekf.pose().yaw, M_PI / 2, 1e-12);
+  // sigma_trans = 0.02 + 0.2 * 1 = 0.22, sigma_rot = 0.01 + 0.2 * 1 = 0.21
+  EXPECT_NEAR(ekf.covariance()(0, 0), 0.22 * 0.22, 1e-12);
+  EXPECT_NEAR(ekf.covariance()(1, 1), 0.22 * 0.22, 1e-12);
+  EXPECT_NEAR(ekf.covariance()(2, 2), 0.21 * 0.21, 1e-12);
+
+  // Heading uncertainty turns into cross-track uncertainty: facing +y, moving 1 m forward,
+  // dx/dyaw = -1, so var(x) gains var(yaw) and cov(x, yaw) = -var(yaw).
+  ekf.reset({0.0, 0.0, M_PI / 2}, Eigen::Vector3d(0, 0, 0.01).asDiagonal());
+  ekf.predict({1.0, 0.0, 0.0});
+  EXPECT_NEAR(ekf.covariance()(0, 0), 0.01 + 0.22 * 0.22, 1e-12);
+  EXPECT_NEAR(ekf.covariance()(0, 2), -0.01, 1e-12);
+  EXPECT_NEAR(ekf.covariance()(2, 2), 0.01 + 0.21 * 0.21, 1e-12);
+}
+
+TEST(Ekf2D, PoseUpdateAveragesEqualUncertaintiesAndGatesOutliers) {
+  Ekf2D ekf;
+  ekf.reset({0, 0, 0}, Eigen::Matrix3d::Identity());
+  ASSERT_TRUE(ekf.updatePose({2.0, 0.0, 0.2}, Eigen::Matrix3d::Identity()));
+  EXPECT_NEAR(ekf.pose().x, 1.0, 1e-12);
+  EXPECT_NEAR(ekf.pose().yaw, 0.1, 1e-12);
+  EXPECT_NEAR(ekf.covariance()(0, 0), 0.5, 1e-12);
+  // 100 m away with 1 m sigmas: Mahalanobis distance^2 far above the 99.9 % bound.
+  const Pose2D before = ekf.pose();
+  EXPECT_FALSE(ekf.updatePose({100.0, 0.0, 0.0}, Eigen::Matrix3d::Identity() * 0.01));
+  EXPECT_GT(ekf.lastMahalanobis2(), Ekf2D::kGate3);
+  EXPECT_EQ(ekf.pose().x, before.x);
+  EXPECT_FALSE(ekf.updatePose({std::nan(""), 0.0, 0.0}, Eigen::Matrix3d::Identity()));
+}
+
+TEST(Ekf2D, GyroCorrectsTheOdometryYawIncrement) {
+  Ekf2D ekf;
+  ekf.reset({0, 0, 0}, Eigen::Matrix3d::Zero());
+  ekf.predict({0.0, 0.0, 0.5});
+  const double q = ekf.covariance()(2, 2);  // all of it from the control
+  ASSERT_TRUE(ekf.updateYawIncrement(0.4, q));  // equally trusted: the mean of 0.5 and 0.4
+  EXPECT_NEAR(ekf.pose().yaw, 0.45, 1e-12);
+  EXPECT_NEAR(ekf.covariance()(2, 2), q / 2, 1e-12);
+  EXPECT_FALSE(ekf.updateYawIncrement(0.4, q));  // only once per prediction
+  ekf.predict({0.0, 0.0, 0.5});
+  EXPECT_FALSE(ekf.updateYawIncrement(3.0, 1e-6));  // a 143-degree disagreement is gated out
+  EXPECT_FALSE(ekf.updateYawIncrement(std::nan(""), 1e-6));
+}
+
+TEST(RobotLogs, CarmenOdometryComesFromTheOdomLinesNotTheReference) {
+  const RobotLog& log = intelLog();
+  EXPECT_EQ(log.format, "carmen");
+  ASSERT_EQ(log.records.size(), 910u);
+  EXPECT_EQ(log.records[0].scan.ranges.size(), 180u);
+  EXPECT_TRUE(log.records[0].has_reference);
+  // Between the first two scans the raw ODOM readings turn from -0.354665 (the anchor line
+  // after the first FLASER) to -0.920053 (the last ODOM before the second FLASER); the
+  // reference turns to -0.938803.
+  EXPECT_NEAR(log.records[1].odometry.yaw, -0.920053 + 0.354665, 1e-6);
+  EXPECT_NEAR(log.records[1].reference.yaw, -0.938803, 1e-6);
+  // Over the whole log, raw odometry drifts far from the reference.
+  const auto odometry = chainOdometry(log, log.records[0].reference);
+  const Pose2D& end = odometry.back();
+  const Pose2D& ref = log.records.back().reference;
+  EXPECT_GT(std::hypot(end.x - ref.x, end.y - ref.y), 1.0);
+}
+
+TEST(RobotLogs, MinesAndRawlogAreRead) {
+  const RobotLog mines = readRobotLog(test::dataPath("logs/mines/exp2.dat"));
+  EXPECT_EQ(mines.records.size(), 641u);
+  EXPECT_EQ(mines.records[0].scan.ranges.size(), 682u);
+  EXPECT_NEAR(mines.laser_in_base.x, 0.145, 1e-12);
+  const auto path = chainOdometry(mines);
+  EXPECT_GT(std::hypot(path.back().x, path.back().y) + std::abs(path.back().yaw), 0.1);  // it moved
+  const RobotLog rawlog = readRobotLog(test::dataPath("logs/mrpt/2006-01ENE-21-SENA_Telecom_Faculty_one_loop_only.rawlog"));
+  EXPECT_EQ(rawlog.records.size(), 225u);
+  EXPECT_TRUE(scanProblem(rawlog.records[0].scan).empty());
+}
+
+TEST(RobotLogs, BadLinesAreSkippedWithTheLineNumberAndUnreadableFilesThrow) {
+  const std::string path = ::testing::TempDir() + "/bad.log";
+  {
+    std::ofstream out(path);
+    out << "ODOM 0 0 0 0 0 0 1.0 host 1.0\n"
+        << "FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.5 host 1.5\n"
+        << "FLASER 3 1.0 nan\n"                                   // truncated
+        << "ODOM 0.5 0 0 0 0 0 2.0 host 2.0\n"
+        << "FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 2.5 host 2.5\n";
+  }
+  const RobotLog log = readCarmenLog(path);
+  ASSERT_EQ(log.records.size(), 2u);
+  ASSERT_EQ(log.warnings.size(), 1u);
+  EXPECT_NE(log.warnings[0].find(":3:"), std::string::npos) << log.warnings[0];
+  EXPECT_NEAR(log.records[1].odometry.x, 0.5, 1e-12);
+  EXPECT_THROW(readRobotLog("/nonexistent/file.log"), LogError);
+  EXPECT_THROW(readRobotLog(path + ".unknown"), LogError);
+  std::remove(path.c_str());
+}
+
+TEST(LaserScan, BadBeamsAreSkippedAndBadScansNamed) {
+  LaserScan scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / 4;
+  scan.range_min = 0.1;
+  scan.range_max = 10;
+  scan.ranges = {1.0f, std::nanf(""), INFINITY, 0.05f, 20.0f};
+  EXPECT_TRUE(scanProblem(scan).empty());
+  EXPECT_EQ(validBeams(scan), 1u);
+  EXPECT_EQ(scanPoints(scan, Pose2D{}).size(), 1u);
+  scan.ranges.resize(20, 1.0f);  // 20 rays at 45 degrees: more than a full turn
+  EXPECT_NE(scanProblem(scan).find("disagree"), std::string::npos);
+}
+
+TEST(ScanMatching, RealConsecutiveIntelScansAlignToTheReference) {
+  const RobotLog& log = intelLog();
+  // One scan against the previous one only (the hardest case for the matcher): most pairs
+  // land within 7 cm and 1.5 degrees of the reference, and ICP beats the odometry guess.
+  int good = 0, tried = 0;
+  double icp_yaw_error = 0, odometry_yaw_error = 0;
+  for (size_t k = 100; k < 900; k += 80) {
+    const LogRecord& a = log.records[k];
+    const LogRecord& b = log.records[k + 1];
+    ScanToMapMatcher matcher(ScanMatcherParams{}, log.laser_in_base);
+    ASSERT_TRUE(matcher.addIfKey(a.scan, a.reference));
+    // Start from the raw odometry guess (off by up to a few degrees and cm).
+    const Pose2D guess = a.reference.compose(b.odometry);
+    const ScanMatch m = matcher.match(b.scan, guess);
+    ++tried;
+    const Pose2D err = b.reference.inverse().compose(m.pose);
+    if (m.ok && std::hypot(err.x, err.y) < 0.07 && std::abs(err.yaw) < 1.5 * kDeg) ++good;
+    icp_yaw_error += std::abs(err.yaw);
+    odometry_yaw_error += std::abs(b.reference.inverse().compose(guess).yaw);
+    EXPECT_TRUE(m.covariance.allFinite());
+  }
+  EXPECT_GE(good, tried - 2) << good << " of " << tried;
+  EXPECT_LT(icp_yaw_error, odometry_yaw_error / 2);
+}
+
+TEST(GridMapper, RealScanMarksWallsOccupiedAndRaysFree) {
+  const LogRecord& r = intelLog().records[10];
+  GridMapper mapper(GridMapperParams{}, Pose2D{});
+  mapper.insert(r.scan, Pose2D{});
+  const OccupancyGrid grid = mapper.toGrid();
+  ASSERT_TRUE(validateGrid(grid).empty());
+  auto cellAt = [&](double x, double y) {
+    return grid.at(static_cast<int>((x - grid.origin.x) / grid.resolution),
+                   static_cast<int>((y - grid.origin.y) / grid.resolution));
+  };
+  int checked = 0;
+  for (size_t i = 0; i < r.scan.ranges.size(); i += 15) {
+    const double range = r.scan.ranges[i];
+    if (!(range > 0.5 && range < 9.0)) continue;
+    const double a = r.scan.angle_min + i * r.scan.angle_increment;
+    // The end point is occupied (allowing for the cell boundary it may sit on).
+    int end = -1;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx)
+        end = std::max<int>(end, cellAt(range * std::cos(a) + dx * 0.5 * grid.resolution,
+                                        range * std::sin(a) + dy * 0.5 * grid.resolution));
+    EXPECT_GT(end, 50) << "beam " << i << " range " << range;
+    EXPECT_LT(cellAt(range / 2 * std::cos(a), range / 2 * std::sin(a)), 50) << "beam " << i;
+    EXPECT_EQ(cellAt((range + 0.5) * std::cos(a), (range + 0.5) * std::sin(a)), OccupancyGrid::kUnknown);
+    ++checked;
+  }
+  EXPECT_GT(checked, 5);
+  // The map grows to cover a scan taken far outside it.
+  const int width = grid.width;
+  mapper.insert(r.scan, Pose2D{40.0, 0.0, 0.0});
+  EXPECT_GT(mapper.geometry().width, width);
+}
+
+TEST(RobotSlam, IntelExcerptTracksTheReferenceAndIgnoresBadScans) {
+  const RobotLog& log = intelLog();
+  RobotSlam robot(RobotSlamParams{}, log.laser_in_base);
+  std::vector<Pose2D> estimate, reference;
+  for (size_t k = 0; k < 200; ++k) {
+    robot.addOdometry(log.records[k].odometry);
+    ASSERT_TRUE(robot.processScan(log.records[k].scan).used);
+    estimate.push_back(robot.filter().pose());
+    reference.push_back(log.records[k].reference);
+    if (k == 50) {  // a scan of NaNs and a scan with nothing in it change nothing
+      LaserScan nan_scan = log.records[k].scan;
+      std::fill(nan_scan.ranges.begin(), nan_scan.ranges.end(), std::nanf(""));
+      EXPECT_FALSE(robot.processScan(nan_scan).used);
+      LaserScan empty;
+      EXPECT_FALSE(robot.processScan(empty).used);
+    }
+  }
+  const auto local = bench::relationError(estimate, reference, bench::consecutivePairs(estimate.size(), 1));
+  const auto odometry = bench::relationError(chainOdometry(log), std::vector<Pose2D>(reference), bench::consecutivePairs(200, 1));
+  EXPECT_LT(local.trans_mean, 0.05);
+  EXPECT_LT(local.rot_mean, 1.0 * kDeg);
+  EXPECT_LT(local.rot_mean, odometry.rot_mean / 2);
+}
+
+TEST(SimulatedGyro, IntegratedYawIsTheTruthPlusBoundedNoise) {
+  SimulatedGyro gyro(GyroNoiseModel{}, 3);
+  double worst = 0;
+  for (int i = 0; i < 50; ++i) worst = std::max(worst, std::abs(gyro.integratedYaw(0, 3, 0.5) - 0.5));
+  EXPECT_GT(worst, 0.0);
+  EXPECT_LT(worst, 5 * std::sqrt(gyro.integratedVariance(3)) + 1e-9);
+}
+
+TEST(RobotParams, ConfigFileLoadsAndTyposAreErrors) {
+  const RobotSlamParams p = loadRobotSlamParams(std::string(MRSLAM_SOURCE_DIR) + "/config/robot.yaml");
+  EXPECT_EQ(p.matcher.keyframes, 40);
+  const std::string path = ::testing::TempDir() + "/typo.yaml";
+  std::ofstream(path) << "icp_keyframe: 3\n";
+  EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError);
+  std::ofstream(path) << "map_resolution: -1\n";
+  EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError);
+  std::remove(path.c_str());
+}
+
+TEST(SlamLogCli, RunsARealLogAndRejectsBadInputWithExitTwo) {
+  const std::string bin = MRSLAM_SLAM_LOG_BIN;
+  const std::string dir = ::testing::TempDir();
+  const auto ok = test::runCommand(bin + " " + test::dataPath("logs/mrpt/localization_demo.rawlog") + " --trajectory " +
+                                   dir + "/t.txt --map " + dir + "/m.yaml --stats");
+  ASSERT_EQ(ok.status, 0) << ok.output;
+  EXPECT_NE(ok.output.find("scans 37"), std::string::npos) << ok.output;
+  const auto trajectory = bench::readTrajectory(dir + "/t.txt");
+  EXPECT_EQ(trajectory.size(), 37u);
+
+  const auto missing = test::runCommand(bin + " /nonexistent/x.log --trajectory " + dir + "/t.txt");
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.output.find("/nonexistent/x.log: cannot open"), std::string::npos) << missing.output;
+  EXPECT_EQ(test::runCommand(bin + " " + test::dataPath("logs/mines/exp1.dat")).status, 2);  // no --trajectory
+  const auto no_reference = test::runCommand(bin + " " + test::dataPath("logs/mines/exp1.dat") + " --simulated-imu --trajectory " + dir + "/t.txt");
+  EXPECT_EQ(no_reference.status, 2);
+  EXPECT_NE(no_reference.output.find("reference"), std::string::npos) << no_reference.output;
+  const std::string bad = dir + "/truncated.log";
+  std::ofstream(bad) << "FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.5 host 1.5\nFLASER 3 1.0\n";
+  const auto truncated = test::runCommand(bin + " " + bad + " --trajectory " + dir + "/t.txt");
+  EXPECT_EQ(truncated.status, 0) << truncated.output;
+  EXPECT_NE(truncated.output.find(bad + ":2: malformed FLASER line skipped"), std::string::npos) << truncated.output;
+}
+
+}  // namespace
+}  // namespace mrslam::slam
