@@ -24,6 +24,11 @@ struct GyroSample {
   double rate;   // rad/s about the robot's z axis
 };
 
+// Variance of the yaw change a gyro with this noise model integrates over `dt` seconds
+// (white noise, the unknown residual bias, the bias wander); the filter's model for a real
+// gyro as well as for the simulated one.
+double gyroIncrementVariance(const GyroNoiseModel& model, double dt);
+
 class SimulatedGyro {
  public:
   SimulatedGyro(const GyroNoiseModel& model, unsigned seed);

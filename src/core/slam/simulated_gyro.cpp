@@ -36,11 +36,13 @@ double SimulatedGyro::integratedYaw(double t0, double t1, double true_yaw_change
   return yaw;
 }
 
-double SimulatedGyro::integratedVariance(double dt) const {
-  const double white = std::pow(model_.noise_density * kDeg, 2) * dt;  // angle random walk
-  const double bias = std::pow(model_.residual_bias * kDeg * dt, 2);    // unknown constant bias
-  const double walk = std::pow(model_.bias_random_walk * kDeg, 2) * dt * dt * dt / 3.0;
+double gyroIncrementVariance(const GyroNoiseModel& model, double dt) {
+  const double white = std::pow(model.noise_density * kDeg, 2) * dt;  // angle random walk
+  const double bias = std::pow(model.residual_bias * kDeg * dt, 2);    // unknown constant bias
+  const double walk = std::pow(model.bias_random_walk * kDeg, 2) * dt * dt * dt / 3.0;
   return white + bias + walk;
 }
+
+double SimulatedGyro::integratedVariance(double dt) const { return gyroIncrementVariance(model_, dt); }
 
 }  // namespace mrslam::slam

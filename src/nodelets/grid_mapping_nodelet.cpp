@@ -1,0 +1,155 @@
+// mrslam/GridMappingNodelet: the robot's occupancy grid (slam::GridMapper, MRPT log-odds),
+// built from the scans at the filtered poses the localization publishes through tf.
+//
+// Subscribes (robot namespace): scan, through a tf2 message filter that holds each scan until
+// map_frame -> laser is known at its stamp. Publishes: map (nav_msgs/OccupancyGrid, latched,
+// at most map_publish_rate Hz and only when it changed) and map_metadata.
+//
+// Zero copy: every publication is a freshly allocated grid filled in place from the MRPT map
+// and published as a shared pointer that is never touched again, so nodelets in the same
+// manager (the map-share and map-merge nodelets) receive that very object.
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <message_filters/subscriber.h>
+#include <nav_msgs/MapMetaData.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <mutex>
+
+#include "mrslam/slam/grid_mapper.h"
+#include "ros_conversions.h"
+#include "ros_params.h"
+
+namespace mrslam::nodelets {
+
+class GridMappingNodelet : public nodelet::Nodelet {
+ private:
+  void onInit() override {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    pnh.param<std::string>("map_frame", map_frame_, "map");
+    double rate = 1.0, max_time_jump = 1.0;
+    pnh.param("map_publish_rate", rate, rate);
+    pnh.param("max_time_jump", max_time_jump_, max_time_jump);
+    params_ = robotSlamParamsFrom(pnh);
+    if (!(params_.grid.resolution > 0)) {
+      NODELET_ERROR("map_resolution must be > 0 (got %f): using 0.05", params_.grid.resolution);
+      params_.grid.resolution = 0.05;
+    }
+    mapper_ = std::make_unique<slam::GridMapper>(params_.grid, Pose2D{});
+
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(30.0));
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+    map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+    metadata_pub_ = nh.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
+    scan_sub_.subscribe(nh, "scan", 20);
+    scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(
+        scan_sub_, *tf_buffer_, map_frame_, 50, nh);
+    scan_filter_->registerCallback(&GridMappingNodelet::onScan, this);
+    scan_filter_->registerFailureCallback(
+        [this](const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::filter_failure_reasons::FilterFailureReason) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          ++dropped_;
+          NODELET_WARN_THROTTLE(10.0, "scan dropped: no transform %s -> %s at its stamp",
+                                map_frame_.c_str(), msg->header.frame_id.c_str());
+        });
+    publish_timer_ = nh.createTimer(ros::Duration(1.0 / std::max(0.01, rate)), &GridMappingNodelet::onTimer, this);
+
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID(nh.getNamespace());
+    diagnostics_->add("grid mapping", this, &GridMappingNodelet::diagnose);
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+  }
+
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const double t = msg->header.stamp.toSec();
+    if (last_scan_time_ > 0 && t < last_scan_time_ - max_time_jump_) {
+      NODELET_WARN("time went back %.1f s (bag restarted?): starting a new map", last_scan_time_ - t);
+      mapper_->clear();
+      tf_buffer_->clear();
+    }
+    last_scan_time_ = t;
+    std::string error;
+    const auto laser_in_map = lookupPose2D(*tf_buffer_, map_frame_, msg->header.frame_id, msg->header.stamp, &error);
+    if (!laser_in_map) {
+      ++dropped_;
+      NODELET_WARN_THROTTLE(10.0, "scan dropped: %s", error.c_str());
+      return;
+    }
+    const slam::LaserScan scan = scanFromMsg(*msg);
+    const std::string problem = slam::scanProblem(scan);
+    if (!problem.empty()) {
+      ++dropped_;
+      NODELET_WARN_THROTTLE(10.0, "scan not inserted: %s", problem.c_str());
+      return;
+    }
+    // The mapper's laser offset is zero: tf already gives the laser's own pose.
+    mapper_->insert(scan, *laser_in_map);
+    ++inserted_;
+  }
+
+  void onTimer(const ros::TimerEvent&) {
+    nav_msgs::OccupancyGridPtr grid;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (inserted_ == 0 || mapper_->version() == published_version_) return;
+      published_version_ = mapper_->version();
+      const slam::GridGeometry g = mapper_->geometry();
+      grid = boost::make_shared<nav_msgs::OccupancyGrid>();
+      grid->header.stamp = ros::Time(last_scan_time_);
+      grid->header.frame_id = map_frame_;
+      grid->info.map_load_time = grid->header.stamp;
+      grid->info.resolution = static_cast<float>(g.resolution);
+      grid->info.width = static_cast<uint32_t>(g.width);
+      grid->info.height = static_cast<uint32_t>(g.height);
+      grid->info.origin.position.x = g.origin.x;
+      grid->info.origin.position.y = g.origin.y;
+      grid->info.origin.orientation.w = 1.0;
+      grid->data.resize(static_cast<size_t>(g.width) * g.height);
+      mapper_->exportCells(grid->data.data());
+    }
+    metadata_pub_.publish(grid->info);
+    map_pub_.publish(nav_msgs::OccupancyGridConstPtr(grid));  // never modified after this line
+    ++published_;
+  }
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (inserted_ == 0) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no scan inserted yet");
+    else status.summary(diagnostic_msgs::DiagnosticStatus::OK, "mapping");
+    const slam::GridGeometry g = mapper_->geometry();
+    status.add("scans inserted", inserted_);
+    status.add("scans dropped", dropped_);
+    status.add("maps published", published_);
+    status.add("width", g.width);
+    status.add("height", g.height);
+  }
+
+  std::mutex mutex_;
+  std::string map_frame_;
+  double max_time_jump_ = 1.0, last_scan_time_ = 0;
+  slam::RobotSlamParams params_;
+  std::unique_ptr<slam::GridMapper> mapper_;
+  uint64_t published_version_ = 0;
+  size_t inserted_ = 0, dropped_ = 0, published_ = 0;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  message_filters::Subscriber<sensor_msgs::LaserScan> scan_sub_;
+  std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
+  ros::Publisher map_pub_, metadata_pub_;
+  ros::Timer publish_timer_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+};
+
+}  // namespace mrslam::nodelets
+
+PLUGINLIB_EXPORT_CLASS(mrslam::nodelets::GridMappingNodelet, nodelet::Nodelet)

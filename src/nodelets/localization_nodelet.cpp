@@ -1,0 +1,203 @@
+// mrslam/LocalizationNodelet: the robot's cascaded EKF (wheel odometry -> gyro -> ICP against a
+// local map) as a thin layer over slam::RobotSlam.
+//
+// Subscribes (robot namespace): scan (sensor_msgs/LaserScan), odom (nav_msgs/Odometry), imu
+// (sensor_msgs/Imu, optional). Publishes: tf map_frame -> odom_frame (REP-105: map -> base is
+// the filtered pose), pose (geometry_msgs/PoseWithCovarianceStamped), odometry/filtered
+// (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched), diagnostics.
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2/utils.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <mutex>
+#include <optional>
+
+#include "mrslam/slam/robot_slam.h"
+#include "mrslam/slam/simulated_gyro.h"
+#include "ros_conversions.h"
+#include "ros_params.h"
+
+namespace mrslam::nodelets {
+
+class LocalizationNodelet : public nodelet::Nodelet {
+ private:
+  void onInit() override {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    pnh.param<std::string>("map_frame", map_frame_, "map");
+    pnh.param<std::string>("odom_frame", odom_frame_, "odom");
+    pnh.param<std::string>("base_frame", base_frame_, "base_link");
+    pnh.param("publish_tf", publish_tf_, true);
+    pnh.param("transform_tolerance", transform_tolerance_, 0.1);
+    pnh.param("max_time_jump", max_time_jump_, 1.0);
+    pnh.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
+    pnh.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
+    params_ = robotSlamParamsFrom(pnh);
+
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+    tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+    pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
+    odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 10);
+    path_pub_ = nh.advertise<nav_msgs::Path>("trajectory", 1, true);
+    odom_sub_ = nh.subscribe("odom", 100, &LocalizationNodelet::onOdometry, this);
+    imu_sub_ = nh.subscribe("imu", 500, &LocalizationNodelet::onImu, this);
+    scan_sub_ = nh.subscribe("scan", 10, &LocalizationNodelet::onScan, this);
+    path_.header.frame_id = map_frame_;
+
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID(nh.getNamespace());
+    diagnostics_->add("localization", this, &LocalizationNodelet::diagnose);
+    double period = 1.0;
+    pnh.param("diagnostics_period", period, period);
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(std::max(0.1, period)),
+                                            [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+  }
+
+  void onOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const Pose2D pose = poseFromMsg(msg->pose.pose);
+    if (!finite(pose)) {
+      NODELET_WARN_THROTTLE(5.0, "odometry with NaN/inf pose ignored");
+      return;
+    }
+    if (last_odom_ && robot_) robot_->addOdometry(last_odom_->inverse().compose(pose));
+    last_odom_ = pose;
+  }
+
+  void onImu(const sensor_msgs::Imu::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const double t = msg->header.stamp.toSec();
+    const double rate = msg->angular_velocity.z;
+    if (!std::isfinite(rate)) {
+      NODELET_WARN_THROTTLE(5.0, "IMU yaw rate is NaN/inf: sample ignored");
+      ++imu_rejected_;
+      return;
+    }
+    if (last_imu_time_ && t > *last_imu_time_ && robot_) {
+      const double dt = t - *last_imu_time_;
+      // The rate held since the previous sample, with the part's noise model for its variance.
+      robot_->addGyro(last_imu_rate_ * dt, slam::gyroIncrementVariance(gyro_model_, dt));
+    }
+    last_imu_time_ = t;
+    last_imu_rate_ = rate;
+  }
+
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const double t = msg->header.stamp.toSec();
+    if (last_scan_time_ && t < *last_scan_time_ - max_time_jump_) {
+      NODELET_WARN("time went back %.1f s (bag restarted?): resetting the filter and the map",
+                   *last_scan_time_ - t);
+      robot_.reset();
+      last_odom_.reset();
+      last_imu_time_.reset();
+      path_.poses.clear();
+      tf_buffer_->clear();
+      ++resets_;
+    }
+    if (!robot_) {
+      std::string error;
+      const auto laser = lookupPose2D(*tf_buffer_, base_frame_, msg->header.frame_id, msg->header.stamp, &error);
+      if (!laser) {
+        NODELET_WARN_THROTTLE(5.0, "waiting for tf %s -> %s: %s", base_frame_.c_str(), msg->header.frame_id.c_str(), error.c_str());
+        last_problem_ = "no laser transform: " + error;
+        return;
+      }
+      robot_ = std::make_unique<slam::RobotSlam>(params_, *laser);
+      if (!last_odom_) NODELET_WARN_THROTTLE(5.0, "no odometry yet: the first scans rely on scan matching alone");
+    }
+    last_scan_time_ = t;
+    const slam::LaserScan scan = scanFromMsg(*msg);
+    const slam::ScanStep step = robot_->processScan(scan);
+    ++scans_;
+    if (!step.used) {
+      ++rejected_;
+      last_problem_ = step.reason;
+      NODELET_WARN_THROTTLE(5.0, "scan rejected: %s", step.reason.c_str());
+      return;
+    }
+    matched_ += step.matched;
+    gated_ += step.gated;
+    if (step.odometry_jump) NODELET_WARN_THROTTLE(5.0, "odometry jumped between two scans: increment ignored");
+    publish(msg->header.stamp);
+  }
+
+  void publish(const ros::Time& stamp) {
+    const Pose2D pose = robot_->filter().pose();
+    const Eigen::Matrix3d& cov = robot_->filter().covariance();
+    if (publish_tf_ && last_odom_) {
+      // map -> odom = (map -> base) * (odom -> base)^-1 with the odometry the filter has used.
+      const Pose2D map_to_odom = pose.compose(last_odom_->inverse());
+      tf_broadcaster_->sendTransform(
+          transformMsg(map_frame_, odom_frame_, stamp + ros::Duration(transform_tolerance_), map_to_odom));
+    }
+    auto pose_msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+    pose_msg->header.stamp = stamp;
+    pose_msg->header.frame_id = map_frame_;
+    pose_msg->pose.pose = poseToMsg(pose);
+    fillCovariance(cov, pose_msg->pose.covariance);
+    pose_pub_.publish(pose_msg);
+    auto odom_msg = boost::make_shared<nav_msgs::Odometry>();
+    odom_msg->header = pose_msg->header;
+    odom_msg->child_frame_id = base_frame_;
+    odom_msg->pose = pose_msg->pose;
+    odom_pub_.publish(odom_msg);
+    geometry_msgs::PoseStamped p;
+    p.header = pose_msg->header;
+    p.pose = pose_msg->pose.pose;
+    path_.header.stamp = stamp;
+    path_.poses.push_back(p);
+    if (path_pub_.getNumSubscribers() > 0 || path_.poses.size() % 20 == 1) path_pub_.publish(path_);
+  }
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!robot_) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for scans and tf: " + last_problem_);
+    else if (scans_ > 10 && matched_ < scans_ / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
+    else status.summary(diagnostic_msgs::DiagnosticStatus::OK, "tracking");
+    status.add("scans", scans_);
+    status.add("scans matched", matched_);
+    status.add("matches gated out", gated_);
+    status.add("scans rejected", rejected_);
+    status.add("imu samples rejected", imu_rejected_);
+    status.add("resets (time jumps)", resets_);
+    status.add("last problem", last_problem_);
+  }
+
+  std::mutex mutex_;
+  std::string map_frame_, odom_frame_, base_frame_;
+  bool publish_tf_ = true;
+  double transform_tolerance_ = 0.1, max_time_jump_ = 1.0;
+  slam::GyroNoiseModel gyro_model_;
+  slam::RobotSlamParams params_;
+  std::unique_ptr<slam::RobotSlam> robot_;
+  std::optional<Pose2D> last_odom_;
+  std::optional<double> last_imu_time_, last_scan_time_;
+  double last_imu_rate_ = 0;
+  size_t scans_ = 0, matched_ = 0, gated_ = 0, rejected_ = 0, imu_rejected_ = 0, resets_ = 0;
+  std::string last_problem_;
+  nav_msgs::Path path_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
+  ros::Publisher pose_pub_, odom_pub_, path_pub_;
+  ros::Subscriber odom_sub_, imu_sub_, scan_sub_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+};
+
+}  // namespace mrslam::nodelets
+
+PLUGINLIB_EXPORT_CLASS(mrslam::nodelets::LocalizationNodelet, nodelet::Nodelet)

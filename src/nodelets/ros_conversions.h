@@ -1,0 +1,88 @@
+// Conversions between ROS messages/tf and the ROS-free core types (nodelets only).
+#pragma once
+
+#include <geometry_msgs/Pose.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2/utils.h>
+#include <tf2_ros/buffer.h>
+
+#include <Eigen/Core>
+#include <boost/array.hpp>
+#include <optional>
+#include <string>
+
+#include "mrslam/grid.h"
+#include "mrslam/slam/laser_scan.h"
+
+namespace mrslam::nodelets {
+
+inline bool finite(const Pose2D& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.yaw); }
+
+inline geometry_msgs::Quaternion yawToQuaternion(double yaw) {
+  geometry_msgs::Quaternion q;
+  q.z = std::sin(yaw / 2);
+  q.w = std::cos(yaw / 2);
+  return q;
+}
+
+inline Pose2D poseFromMsg(const geometry_msgs::Pose& p) {
+  return {p.position.x, p.position.y, tf2::getYaw(p.orientation)};
+}
+
+inline geometry_msgs::Pose poseToMsg(const Pose2D& p) {
+  geometry_msgs::Pose m;
+  m.position.x = p.x;
+  m.position.y = p.y;
+  m.orientation = yawToQuaternion(p.yaw);
+  return m;
+}
+
+inline Pose2D poseFromTransform(const geometry_msgs::Transform& t) {
+  return {t.translation.x, t.translation.y, tf2::getYaw(t.rotation)};
+}
+
+inline geometry_msgs::TransformStamped transformMsg(const std::string& parent, const std::string& child,
+                                                    const ros::Time& stamp, const Pose2D& p) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform.translation.x = p.x;
+  t.transform.translation.y = p.y;
+  t.transform.rotation = yawToQuaternion(p.yaw);
+  return t;
+}
+
+// The pose of `child` in `parent` at `stamp` (or the latest when stamp is zero).
+inline std::optional<Pose2D> lookupPose2D(const tf2_ros::Buffer& buffer, const std::string& parent,
+                                          const std::string& child, const ros::Time& stamp, std::string* error) {
+  try {
+    return poseFromTransform(buffer.lookupTransform(parent, child, stamp).transform);
+  } catch (const tf2::TransformException& e) {
+    if (error) *error = e.what();
+    return std::nullopt;
+  }
+}
+
+inline slam::LaserScan scanFromMsg(const sensor_msgs::LaserScan& msg) {
+  slam::LaserScan scan;
+  scan.stamp = msg.header.stamp.toSec();
+  scan.angle_min = msg.angle_min;
+  scan.angle_increment = msg.angle_increment;
+  scan.range_min = msg.range_min;
+  scan.range_max = msg.range_max;
+  scan.ranges = msg.ranges;
+  return scan;
+}
+
+// Row-major 6x6 (x, y, z, roll, pitch, yaw) from the 3x3 (x, y, yaw) covariance.
+inline void fillCovariance(const Eigen::Matrix3d& cov, boost::array<double, 36>& out) {
+  out.fill(0.0);
+  const int index[3] = {0, 1, 5};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out[index[r] * 6 + index[c]] = cov(r, c);
+}
+
+}  // namespace mrslam::nodelets
