@@ -85,7 +85,8 @@ class GridMappingNodelet : public nodelet::Nodelet {
       return;
     }
     const slam::LaserScan scan = scanFromMsg(*msg);
-    const std::string problem = slam::scanProblem(scan);
+    std::string problem = scanMsgProblem(*msg);
+    if (problem.empty()) problem = slam::scanProblem(scan);
     if (!problem.empty()) {
       ++dropped_;
       NODELET_WARN_THROTTLE(10.0, "scan not inserted: %s", problem.c_str());

@@ -119,8 +119,14 @@ class LocalizationNodelet : public nodelet::Nodelet {
       if (!last_odom_) NODELET_WARN_THROTTLE(5.0, "no odometry yet: the first scans rely on scan matching alone");
     }
     last_scan_time_ = t;
-    const slam::LaserScan scan = scanFromMsg(*msg);
-    const slam::ScanStep step = robot_->processScan(scan);
+    const std::string msg_problem = scanMsgProblem(*msg);
+    if (!msg_problem.empty()) {
+      ++rejected_;
+      last_problem_ = msg_problem;
+      NODELET_ERROR_THROTTLE(5.0, "scan rejected: %s", msg_problem.c_str());
+      return;
+    }
+    const slam::ScanStep step = robot_->processScan(scanFromMsg(*msg));
     ++scans_;
     if (!step.used) {
       ++rejected_;

@@ -66,6 +66,18 @@ inline std::optional<Pose2D> lookupPose2D(const tf2_ros::Buffer& buffer, const s
   }
 }
 
+// Why a LaserScan message cannot be used (empty when it can): on top of the core's checks,
+// the ray count must agree with angle_min, angle_max and angle_increment.
+inline std::string scanMsgProblem(const sensor_msgs::LaserScan& msg) {
+  if (msg.ranges.size() >= 2 && std::isfinite(msg.angle_increment) && msg.angle_increment != 0.0f) {
+    const double expected = (static_cast<double>(msg.angle_max) - msg.angle_min) / msg.angle_increment + 1.0;
+    if (std::abs(expected - static_cast<double>(msg.ranges.size())) > 1.0)
+      return std::to_string(msg.ranges.size()) + " rays disagree with angle_min/angle_max/angle_increment (" +
+             std::to_string(static_cast<long>(std::lround(expected))) + " expected)";
+  }
+  return "";
+}
+
 inline slam::LaserScan scanFromMsg(const sensor_msgs::LaserScan& msg) {
   slam::LaserScan scan;
   scan.stamp = msg.header.stamp.toSec();

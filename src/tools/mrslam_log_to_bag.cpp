@@ -29,11 +29,14 @@
 
 #include "mrslam/slam/robot_log.h"
 #include "mrslam/slam/simulated_gyro.h"
+#include "ros_conversions.h"
 
 namespace {
 
 namespace slam = mrslam::slam;
 using mrslam::Pose2D;
+using mrslam::nodelets::transformMsg;
+using mrslam::nodelets::yawToQuaternion;
 
 struct Window {
   std::string robot;
@@ -47,25 +50,6 @@ constexpr const char* kUsage =
 int fail(const std::string& message) {
   std::cerr << "mrslam_log_to_bag: " << message << "\n";
   return 2;
-}
-
-geometry_msgs::Quaternion yawQuaternion(double yaw) {
-  geometry_msgs::Quaternion q;
-  q.z = std::sin(yaw / 2);
-  q.w = std::cos(yaw / 2);
-  return q;
-}
-
-geometry_msgs::TransformStamped transform(const std::string& parent, const std::string& child, const ros::Time& stamp,
-                                          const Pose2D& p) {
-  geometry_msgs::TransformStamped t;
-  t.header.stamp = stamp;
-  t.header.frame_id = parent;
-  t.child_frame_id = child;
-  t.transform.translation.x = p.x;
-  t.transform.translation.y = p.y;
-  t.transform.rotation = yawQuaternion(p.yaw);
-  return t;
 }
 
 }  // namespace
@@ -174,10 +158,10 @@ int main(int argc, char** argv) {
       odom.child_frame_id = ns + "/base_link";
       odom.pose.pose.position.x = odometry[k].x;
       odom.pose.pose.position.y = odometry[k].y;
-      odom.pose.pose.orientation = yawQuaternion(odometry[k].yaw);
+      odom.pose.pose.orientation = yawToQuaternion(odometry[k].yaw);
       tf2_msgs::TFMessage tf;
-      tf.transforms.push_back(transform(ns + "/odom", ns + "/base_link", stamp, odometry[k]));
-      tf.transforms.push_back(transform(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
+      tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry[k]));
+      tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
       // Odometry and tf first: a consumer has the motion up to the scan when the scan arrives.
       bag.write("/" + ns + "/odom", stamp, odom);
       bag.write("/tf", stamp, tf);
@@ -188,7 +172,7 @@ int main(int argc, char** argv) {
         ref.header.frame_id = "reference";
         ref.pose.position.x = r.reference.x;
         ref.pose.position.y = r.reference.y;
-        ref.pose.orientation = yawQuaternion(r.reference.yaw);
+        ref.pose.orientation = yawToQuaternion(r.reference.yaw);
         bag.write("/" + ns + "/reference_pose", stamp, ref);
       }
       last_stamp = t;

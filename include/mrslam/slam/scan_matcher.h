@@ -22,6 +22,10 @@ struct ScanMatcherParams {
   double max_correspondence = 0.5;    // m, ICP's initial matching distance (halved on convergence)
   double min_correspondence = 0.03;   // m, ICP's final matching distance
   int max_iterations = 60;
+  // MRPT pairs only every n-th scan point in the early iterations; n is chosen per scan so
+  // that about this many points are paired (sparse 180-beam scans keep all of them, dense
+  // 361- and 682-beam scans are paired at a fraction of the cost). 0: pair every point.
+  int correspondence_points = 180;
   double min_point_spacing = 0.02;    // m: returns closer than this to the last kept one are skipped
   double min_goodness = 0.3;          // share of points with a correspondence to accept a match
   double min_sigma_xy = 0.01;         // m, floor of the reported standard deviation

@@ -27,6 +27,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"icp_min_correspondence", &s.min_correspondence},
       {"icp_max_iterations", &s.max_iterations},
       {"icp_min_point_spacing", &s.min_point_spacing},
+      {"icp_correspondence_points", &s.correspondence_points},
       {"icp_min_goodness", &s.min_goodness},
       {"icp_min_sigma_xy", &s.min_sigma_xy},
       {"icp_min_sigma_yaw", &s.min_sigma_yaw},

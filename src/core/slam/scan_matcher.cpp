@@ -63,6 +63,11 @@ ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess) co
     return result;
   }
   mrpt::slam::CICP::TReturnInfo info;
+  // The ICP object is shared by the const match() calls of one matcher (one thread each).
+  impl_->icp.options.corresponding_points_decimation =
+      params_.correspondence_points > 0
+          ? static_cast<uint32_t>(std::max<size_t>(1, (current.size() + params_.correspondence_points - 1) / params_.correspondence_points))
+          : 1;
   const auto pdf = impl_->icp.Align(&impl_->local_map, &current, mrpt::poses::CPose2D(guess.x, guess.y, guess.yaw), info);
   mrpt::poses::CPosePDFGaussian gaussian;
   gaussian.copyFrom(*pdf);
