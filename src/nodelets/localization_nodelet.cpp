@@ -5,6 +5,12 @@
 // (sensor_msgs/Imu, optional). Publishes: tf map_frame -> odom_frame (REP-105: map -> base is
 // the filtered pose), pose (geometry_msgs/PoseWithCovarianceStamped), odometry/filtered
 // (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched), diagnostics.
+//
+// Timing: callbacks of different topics run in any order, so nothing is accumulated as it
+// arrives. Each scan waits (tf2 message filter) until odom_frame -> base_frame is known at its
+// stamp; the odometry increment is taken from tf at the two scan stamps and the gyro samples
+// are integrated over exactly that interval from a time-ordered buffer. The odom topic itself
+// is watched for NaN poses and jumps (diagnostics).
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
@@ -15,10 +21,13 @@
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/LaserScan.h>
 #include <tf2/utils.h>
+#include <message_filters/subscriber.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -53,7 +62,17 @@ class LocalizationNodelet : public nodelet::Nodelet {
     path_pub_ = nh.advertise<nav_msgs::Path>("trajectory", 1, true);
     odom_sub_ = nh.subscribe("odom", 100, &LocalizationNodelet::onOdometry, this);
     imu_sub_ = nh.subscribe("imu", 500, &LocalizationNodelet::onImu, this);
-    scan_sub_ = nh.subscribe("scan", 10, &LocalizationNodelet::onScan, this);
+    scan_sub_.subscribe(nh, "scan", 20);
+    scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(scan_sub_, *tf_buffer_, odom_frame_, 50, nh);
+    scan_filter_->registerCallback(&LocalizationNodelet::onScan, this);
+    scan_filter_->registerFailureCallback(
+        [this](const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::filter_failure_reasons::FilterFailureReason) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          ++rejected_;
+          last_problem_ = "no odometry transform at a scan's stamp";
+          NODELET_WARN_THROTTLE(5.0, "scan dropped: no transform %s -> %s at its stamp", odom_frame_.c_str(),
+                                msg->header.frame_id.c_str());
+        });
     path_.header.frame_id = map_frame_;
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
@@ -69,11 +88,10 @@ class LocalizationNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     const Pose2D pose = poseFromMsg(msg->pose.pose);
     if (!finite(pose)) {
-      NODELET_WARN_THROTTLE(5.0, "odometry with NaN/inf pose ignored");
-      return;
+      ++bad_odometry_;
+      NODELET_WARN_THROTTLE(5.0, "odometry with a NaN/inf pose");
     }
-    if (last_odom_ && robot_) robot_->addOdometry(last_odom_->inverse().compose(pose));
-    last_odom_ = pose;
+    ++odometry_messages_;
   }
 
   void onImu(const sensor_msgs::Imu::ConstPtr& msg) {
@@ -85,13 +103,23 @@ class LocalizationNodelet : public nodelet::Nodelet {
       ++imu_rejected_;
       return;
     }
-    if (last_imu_time_ && t > *last_imu_time_ && robot_) {
-      const double dt = t - *last_imu_time_;
-      // The rate held since the previous sample, with the part's noise model for its variance.
-      robot_->addGyro(last_imu_rate_ * dt, slam::gyroIncrementVariance(gyro_model_, dt));
+    // Kept in time order until a scan integrates the interval it belongs to.
+    auto at = std::upper_bound(gyro_.begin(), gyro_.end(), t, [](double v, const std::pair<double, double>& s) { return v < s.first; });
+    gyro_.insert(at, {t, rate});
+    while (gyro_.size() > 20000) gyro_.pop_front();
+  }
+
+  // The gyro's yaw change over [t0, t1): each sample's rate holds until the next sample.
+  void integrateGyro(double t0, double t1) {
+    double yaw = 0, covered = 0;
+    for (size_t i = 0; i < gyro_.size(); ++i) {
+      const double start = std::max(t0, gyro_[i].first);
+      const double end = std::min(t1, i + 1 < gyro_.size() ? gyro_[i + 1].first : t1);
+      if (end > start) yaw += gyro_[i].second * (end - start), covered += end - start;
     }
-    last_imu_time_ = t;
-    last_imu_rate_ = rate;
+    while (gyro_.size() > 1 && gyro_[1].first <= t1) gyro_.pop_front();
+    // Only an interval the samples (nearly) cover is a measurement.
+    if (covered > 0.9 * (t1 - t0) && t1 > t0) robot_->addGyro(yaw, slam::gyroIncrementVariance(gyro_model_, t1 - t0));
   }
 
   void onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
@@ -102,7 +130,7 @@ class LocalizationNodelet : public nodelet::Nodelet {
                    *last_scan_time_ - t);
       robot_.reset();
       last_odom_.reset();
-      last_imu_time_.reset();
+      gyro_.clear();
       path_.poses.clear();
       tf_buffer_->clear();
       ++resets_;
@@ -116,8 +144,18 @@ class LocalizationNodelet : public nodelet::Nodelet {
         return;
       }
       robot_ = std::make_unique<slam::RobotSlam>(params_, *laser);
-      if (!last_odom_) NODELET_WARN_THROTTLE(5.0, "no odometry yet: the first scans rely on scan matching alone");
     }
+    std::string error;
+    const auto odom = lookupPose2D(*tf_buffer_, odom_frame_, base_frame_, msg->header.stamp, &error);
+    if (!odom || !finite(*odom)) {
+      ++rejected_;
+      last_problem_ = "no odometry at the scan's stamp: " + error;
+      NODELET_WARN_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return;
+    }
+    if (last_odom_) robot_->addOdometry(last_odom_->inverse().compose(*odom));
+    if (last_scan_time_ && params_.use_imu) integrateGyro(*last_scan_time_, t);
+    last_odom_ = odom;
     last_scan_time_ = t;
     const std::string msg_problem = scanMsgProblem(*msg);
     if (!msg_problem.empty()) {
@@ -178,6 +216,8 @@ class LocalizationNodelet : public nodelet::Nodelet {
     status.add("matches gated out", gated_);
     status.add("scans rejected", rejected_);
     status.add("imu samples rejected", imu_rejected_);
+    status.add("odometry messages", odometry_messages_);
+    status.add("odometry messages with NaN", bad_odometry_);
     status.add("resets (time jumps)", resets_);
     status.add("last problem", last_problem_);
   }
@@ -190,8 +230,9 @@ class LocalizationNodelet : public nodelet::Nodelet {
   slam::RobotSlamParams params_;
   std::unique_ptr<slam::RobotSlam> robot_;
   std::optional<Pose2D> last_odom_;
-  std::optional<double> last_imu_time_, last_scan_time_;
-  double last_imu_rate_ = 0;
+  std::optional<double> last_scan_time_;
+  std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered
+  size_t odometry_messages_ = 0, bad_odometry_ = 0;
   size_t scans_ = 0, matched_ = 0, gated_ = 0, rejected_ = 0, imu_rejected_ = 0, resets_ = 0;
   std::string last_problem_;
   nav_msgs::Path path_;
@@ -199,7 +240,9 @@ class LocalizationNodelet : public nodelet::Nodelet {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   ros::Publisher pose_pub_, odom_pub_, path_pub_;
-  ros::Subscriber odom_sub_, imu_sub_, scan_sub_;
+  ros::Subscriber odom_sub_, imu_sub_;
+  message_filters::Subscriber<sensor_msgs::LaserScan> scan_sub_;
+  std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;
 };

@@ -89,6 +89,41 @@ inline slam::LaserScan scanFromMsg(const sensor_msgs::LaserScan& msg) {
   return scan;
 }
 
+// Why a grid message cannot be used (empty when it can): data size, resolution, size limit.
+inline std::string gridMsgProblem(const nav_msgs::OccupancyGrid& msg, int64_t max_cells) {
+  const int64_t cells = static_cast<int64_t>(msg.info.width) * msg.info.height;
+  if (!std::isfinite(msg.info.resolution) || !(msg.info.resolution > 0)) return "resolution is not positive";
+  if (cells == 0) return "empty grid";
+  if (cells > max_cells) return "absurd size " + std::to_string(msg.info.width) + " x " + std::to_string(msg.info.height);
+  if (static_cast<int64_t>(msg.data.size()) != cells)
+    return "data size " + std::to_string(msg.data.size()) + " != width x height " + std::to_string(cells);
+  const auto& o = msg.info.origin;
+  if (!std::isfinite(o.position.x) || !std::isfinite(o.position.y) || !std::isfinite(o.orientation.w)) return "origin is not finite";
+  return "";
+}
+
+inline OccupancyGrid gridFromMsg(const nav_msgs::OccupancyGrid& msg) {
+  OccupancyGrid grid;
+  grid.width = static_cast<int>(msg.info.width);
+  grid.height = static_cast<int>(msg.info.height);
+  grid.resolution = msg.info.resolution;
+  grid.origin = poseFromMsg(msg.info.origin);
+  grid.data = msg.data;
+  return grid;
+}
+
+inline void gridToMsg(const OccupancyGrid& grid, const std::string& frame, const ros::Time& stamp,
+                      nav_msgs::OccupancyGrid& msg) {
+  msg.header.stamp = stamp;
+  msg.header.frame_id = frame;
+  msg.info.map_load_time = stamp;
+  msg.info.resolution = static_cast<float>(grid.resolution);
+  msg.info.width = static_cast<uint32_t>(grid.width);
+  msg.info.height = static_cast<uint32_t>(grid.height);
+  msg.info.origin = poseToMsg(grid.origin);
+  msg.data = grid.data;
+}
+
 // Row-major 6x6 (x, y, z, roll, pitch, yaw) from the 3x3 (x, y, yaw) covariance.
 inline void fillCovariance(const Eigen::Matrix3d& cov, boost::array<double, 36>& out) {
   out.fill(0.0);

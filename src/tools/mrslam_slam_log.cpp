@@ -3,6 +3,7 @@
 //
 //   mrslam_slam_log LOG --trajectory OUT.txt [--map OUT.yaml [--png]] [--config robot.yaml]
 //                   [--simulated-imu [--imu-seed N]] [--no-scan-matching] [--stats]
+//                   [--window START:END]
 //
 // LOG: CARMEN .log/.log.gz (odometry from the ODOM lines; the FLASER poses are the reference
 // and never input), Mines .dat, MRPT .rawlog. OUT.txt gets one line per scan used,
@@ -28,7 +29,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: mrslam_slam_log LOG --trajectory OUT.txt [--map OUT.yaml [--png]] [--config robot.yaml]\n"
-    "                       [--simulated-imu [--imu-seed N]] [--no-scan-matching] [--stats]\n";
+    "                       [--simulated-imu [--imu-seed N]] [--no-scan-matching] [--stats] [--window START:END]\n";
 
 int fail(const std::string& message) {
   std::cerr << "mrslam_slam_log: " << message << "\n";
@@ -42,6 +43,7 @@ int main(int argc, char** argv) {
   std::string log_path, trajectory_path, map_path, config_path;
   bool simulated_imu = false, scan_matching = true, stats = false, png = false;
   unsigned imu_seed = 1;
+  double window_start = 0, window_end = 0;  // seconds after the log's first scan; end 0 = to the end
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](std::string& out) {
@@ -56,6 +58,14 @@ int main(int argc, char** argv) {
     else if (a == "--imu-seed") {
       if (!value(seed)) return fail("--imu-seed needs a number");
       try { imu_seed = static_cast<unsigned>(std::stoul(seed)); } catch (...) { return fail("--imu-seed needs a number"); }
+    }
+    else if (a == "--window") {
+      std::string spec;
+      if (!value(spec) || spec.find(':') == std::string::npos) return fail("--window needs START:END (seconds)");
+      try {
+        window_start = std::stod(spec.substr(0, spec.find(':')));
+        window_end = std::stod(spec.substr(spec.find(':') + 1));
+      } catch (...) { return fail("--window needs START:END (seconds)"); }
     }
     else if (a == "--simulated-imu") simulated_imu = true;
     else if (a == "--no-scan-matching") scan_matching = false;
@@ -95,11 +105,23 @@ int main(int argc, char** argv) {
 
   slam::RobotSlam robot(params, log.laser_in_base);
   slam::SimulatedGyro gyro(slam::GyroNoiseModel{}, imu_seed);
+  double first_stamp = 0, last_stamp = 0;
   size_t used = 0, matched = 0, gated = 0, imu_used = 0, jumps = 0;
+  const double log_start = log.records.front().scan.stamp;
+  size_t first_in_window = log.records.size();
   for (size_t k = 0; k < log.records.size(); ++k) {
     const slam::LogRecord& r = log.records[k];
-    robot.addOdometry(r.odometry);
-    if (simulated_imu && k > 0) {
+    const double t_log = r.scan.stamp - log_start;
+    if (t_log < window_start || (window_end > 0 && t_log > window_end)) continue;
+    if (first_in_window == log.records.size()) {
+      first_in_window = k;
+      if (r.has_reference)  // where this run's map frame sits in the log's reference frame
+        std::cerr << "window starts at scan " << k << ", reference pose " << r.reference.x << " " << r.reference.y << " "
+                  << r.reference.yaw << "\n";
+    } else {
+      robot.addOdometry(r.odometry);
+    }
+    if (simulated_imu && k > first_in_window) {
       const double t0 = log.records[k - 1].scan.stamp, t1 = r.scan.stamp;
       const double true_change = mrslam::Pose2D::normalizeAngle(r.reference.yaw - log.records[k - 1].reference.yaw);
       if (t1 > t0) robot.addGyro(gyro.integratedYaw(t0, t1, true_change), gyro.integratedVariance(t1 - t0));
@@ -109,7 +131,8 @@ int main(int argc, char** argv) {
       std::cerr << "warning: " << log_path << ": scan " << k << " not used: " << step.reason << "\n";
       continue;
     }
-    ++used;
+    if (used++ == 0) first_stamp = r.scan.stamp;
+    last_stamp = r.scan.stamp;
     matched += step.matched;
     gated += step.gated;
     imu_used += step.imu_used;
@@ -131,7 +154,7 @@ int main(int argc, char** argv) {
   if (stats) {
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);
-    const double duration = log.records.back().scan.stamp - log.records.front().scan.stamp;
+    const double duration = last_stamp - first_stamp;
     std::cout << std::fixed << std::setprecision(1) << "scans " << used << " matched " << matched << " gated " << gated
               << " imu " << imu_used << " odometry_jumps " << jumps << " seconds " << std::setprecision(3) << seconds
               << " scans_per_s " << std::setprecision(1) << used / seconds << " log_s " << duration

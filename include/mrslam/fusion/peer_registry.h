@@ -1,0 +1,79 @@
+// What one robot knows about its peers, for the map-merge nodelet (ROS-free, unit-tested):
+// the latest map of each peer, when to re-estimate a peer's transform (its map or ours has
+// grown enough), which estimate to keep (hysteresis), and which peer's map frame is the tf
+// parent of ours.
+//
+// Frame convention (keeps tf a tree with one publisher per edge, all robots under one master):
+// robot N publishes exactly one edge, the parent of its own map frame, robotP/map -> robotN/map,
+// where P is the smallest robot id below N whose map N has accepted (ids compared as strings).
+// Every map frame then has at most one parent, parents always have smaller ids (no cycles),
+// and a group of robots that accepted each other hangs from its smallest id.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mrslam/fusion/map_fusion.h"
+#include "mrslam/grid.h"
+
+namespace mrslam::fusion {
+
+struct PeerRegistryParams {
+  double regrow_fraction = 0.1;     // re-estimate when either map's known cells grew by this share
+  double consistent_m = 0.5;        // a new estimate within this distance and...
+  double consistent_deg = 3.0;      // ...this angle of the accepted one is "the same place"
+  double switch_margin = 0.01;      // an inconsistent estimate replaces the accepted one only if
+                                    // its acceptance index V is higher by this much
+};
+
+struct PeerEstimate {
+  bool accepted = false;
+  Pose2D pose;              // the peer's map frame in our map frame
+  double acceptance = 0;    // V
+  double stamp = 0;         // when it was estimated (s)
+  std::string reason;       // why rejected
+};
+
+struct Peer {
+  std::string id;
+  std::shared_ptr<const OccupancyGrid> map;  // latest valid map
+  uint32_t version = 0;
+  double first_seen = 0, last_seen = 0;
+  size_t known_cells = 0;
+  size_t known_at_estimate = 0, own_known_at_estimate = 0;
+  int attempts = 0;
+  std::optional<PeerEstimate> accepted;  // the transform in use
+  PeerEstimate last_attempt;
+  double accepted_since = 0;             // when the first transform was accepted
+};
+
+size_t knownCells(const OccupancyGrid& grid);
+
+class PeerRegistry {
+ public:
+  explicit PeerRegistry(std::string self_id, const PeerRegistryParams& params = PeerRegistryParams{});
+
+  // A new map from a peer. A version lower than the last one means the peer restarted: its map
+  // frame is new, so what we knew about it is dropped. Returns true when the peer is new or rejoined.
+  bool updatePeer(const std::string& id, std::shared_ptr<const OccupancyGrid> map, uint32_t version, double now);
+  // The peer whose transform should be (re-)estimated next, given our map's known cells: never
+  // estimated first, then the one whose maps grew the most. None when nothing needs work.
+  std::optional<std::string> nextToEstimate(size_t own_known_cells) const;
+  // Records an estimate with hysteresis. Returns true when the transform in use changed.
+  bool applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now);
+  // Our map frame's tf parent under the convention above.
+  std::optional<std::string> parentOf() const;
+
+  const std::map<std::string, Peer>& peers() const { return peers_; }
+  const std::string& self() const { return self_; }
+
+ private:
+  std::string self_;
+  PeerRegistryParams params_;
+  std::map<std::string, Peer> peers_;
+};
+
+}  // namespace mrslam::fusion

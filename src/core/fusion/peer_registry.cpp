@@ -1,0 +1,81 @@
+#include "mrslam/fusion/peer_registry.h"
+
+#include <algorithm>
+
+namespace mrslam::fusion {
+
+size_t knownCells(const OccupancyGrid& grid) {
+  return static_cast<size_t>(std::count_if(grid.data.begin(), grid.data.end(), [](int8_t v) { return v >= 0; }));
+}
+
+PeerRegistry::PeerRegistry(std::string self_id, const PeerRegistryParams& params)
+    : self_(std::move(self_id)), params_(params) {}
+
+bool PeerRegistry::updatePeer(const std::string& id, std::shared_ptr<const OccupancyGrid> map, uint32_t version,
+                              double now) {
+  auto [it, inserted] = peers_.try_emplace(id);
+  Peer& peer = it->second;
+  bool rejoined = inserted;
+  if (!inserted && version < peer.version) {  // restarted: a new map frame
+    peer = Peer{};
+    rejoined = true;
+  }
+  if (rejoined) {
+    peer.id = id;
+    peer.first_seen = now;
+  }
+  peer.map = std::move(map);
+  peer.version = version;
+  peer.last_seen = now;
+  peer.known_cells = knownCells(*peer.map);
+  return rejoined;
+}
+
+std::optional<std::string> PeerRegistry::nextToEstimate(size_t own_known_cells) const {
+  std::optional<std::string> best;
+  double best_growth = 0;
+  for (const auto& [id, peer] : peers_) {
+    if (!peer.map || own_known_cells == 0) continue;
+    if (peer.attempts == 0) return id;
+    const double peer_growth = peer.known_at_estimate ? static_cast<double>(peer.known_cells) / peer.known_at_estimate - 1 : 1;
+    const double own_growth = peer.own_known_at_estimate ? static_cast<double>(own_known_cells) / peer.own_known_at_estimate - 1 : 1;
+    const double growth = std::max(peer_growth, own_growth);
+    if (growth >= params_.regrow_fraction && growth > best_growth) best = id, best_growth = growth;
+  }
+  return best;
+}
+
+bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now) {
+  auto it = peers_.find(id);
+  if (it == peers_.end()) return false;
+  Peer& peer = it->second;
+  ++peer.attempts;
+  peer.known_at_estimate = peer.known_cells;
+  peer.own_known_at_estimate = own_known_cells;
+  PeerEstimate estimate{result.accepted, result.pose, result.verdict.acceptance, now, result.verdict.reason};
+  peer.last_attempt = estimate;
+  if (!estimate.accepted) return false;  // keep whatever we had
+  if (!peer.accepted) {
+    peer.accepted = estimate;
+    peer.accepted_since = now;
+    return true;
+  }
+  const PeerEstimate& current = *peer.accepted;
+  const bool consistent =
+      std::hypot(estimate.pose.x - current.pose.x, estimate.pose.y - current.pose.y) <= params_.consistent_m &&
+      std::abs(Pose2D::normalizeAngle(estimate.pose.yaw - current.pose.yaw)) <= params_.consistent_deg * M_PI / 180;
+  // Same place: the newer estimate saw more of both maps, take it. Elsewhere: only when clearly better.
+  if (consistent || estimate.acceptance > current.acceptance + params_.switch_margin) {
+    peer.accepted = estimate;
+    return true;
+  }
+  return false;
+}
+
+std::optional<std::string> PeerRegistry::parentOf() const {
+  for (const auto& [id, peer] : peers_)  // std::map: ascending ids
+    if (id < self_ && peer.accepted) return id;
+  return std::nullopt;
+}
+
+}  // namespace mrslam::fusion

@@ -1,0 +1,273 @@
+// mrslam/MapMergeNodelet: fuses every peer's map into this robot's map (Saeedi et al. 2011
+// map fusion, slam/fusion core), without a list of robots configured in advance.
+//
+// Subscribes: map (this robot's grid, by pointer from the mapping nodelet in the same manager),
+// share_topic (mrslam/LocalMapShare of all robots; our own is ignored). The fusion runs in a
+// worker thread, so callbacks never block. Publishes: the tf edge of the frame convention in
+// fusion/peer_registry.h (static, robotP/map -> robotN/map), merged_map (OccupancyGrid in our
+// map frame, latched), merge_status (diagnostic_msgs/DiagnosticArray, one status per peer:
+// accepted, x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time),
+// diagnostics; service ~export_octomap (std_srvs/Trigger) writes the merged map as an OctoMap
+// .bt to the parameter octomap_path.
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "mrslam/fusion/fusion_params_io.h"
+#include "mrslam/fusion/grid_merge.h"
+#include "mrslam/fusion/map_fusion.h"
+#include "mrslam/fusion/peer_registry.h"
+#include "mrslam/octomap_export.h"
+#include "mrslam/ros/shared_map.h"
+#include "ros_conversions.h"
+
+namespace mrslam::nodelets {
+
+class MapMergeNodelet : public nodelet::Nodelet {
+ public:
+  ~MapMergeNodelet() override {
+    stop_ = true;
+    wake_.notify_all();
+    if (worker_.joinable()) worker_.join();
+  }
+
+ private:
+  void onInit() override {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    std::string topic, fusion_config;
+    pnh.param<std::string>("robot_id", robot_id_, "robot1");
+    pnh.param<std::string>("map_frame", map_frame_, robot_id_ + "/map");
+    pnh.param<std::string>("share_topic", topic, "/mrslam/map_share");
+    pnh.param<std::string>("fusion_config", fusion_config, "");
+    pnh.param<std::string>("octomap_path", octomap_path_, "/tmp/" + robot_id_ + "_merged_map.bt");
+    pnh.param("max_peer_cells", max_peer_cells_, 64.0e6);
+    pnh.param("merged_map_period", merged_map_period_, 2.0);
+    fusion::PeerRegistryParams registry_params;
+    pnh.param("regrow_fraction", registry_params.regrow_fraction, registry_params.regrow_fraction);
+    pnh.param("consistent_m", registry_params.consistent_m, registry_params.consistent_m);
+    pnh.param("consistent_deg", registry_params.consistent_deg, registry_params.consistent_deg);
+    pnh.param("switch_margin", registry_params.switch_margin, registry_params.switch_margin);
+    registry_ = std::make_unique<fusion::PeerRegistry>(robot_id_, registry_params);
+    if (!fusion_config.empty()) {
+      try {
+        fusion_params_ = fusion::loadFusionParams(fusion_config);
+      } catch (const std::exception& e) {
+        NODELET_ERROR("%s: using the default fusion parameters", e.what());
+      }
+    }
+
+    merged_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("merged_map", 1, true);
+    status_pub_ = nh.advertise<diagnostic_msgs::DiagnosticArray>("merge_status", 1, true);
+    own_sub_ = nh.subscribe("map", 1, &MapMergeNodelet::onOwnMap, this);
+    share_sub_ = nh.subscribe(topic, 20, &MapMergeNodelet::onShare, this);
+    export_srv_ = pnh.advertiseService("export_octomap", &MapMergeNodelet::onExport, this);
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID(nh.getNamespace());
+    diagnostics_->add("map merge", this, &MapMergeNodelet::diagnose);
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+    worker_ = std::thread(&MapMergeNodelet::work, this);
+  }
+
+  void onOwnMap(const nav_msgs::OccupancyGrid::ConstPtr& map) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    own_msg_ = map;
+    own_address_ = reinterpret_cast<uintptr_t>(map.get());
+    own_dirty_ = true;
+    wake_.notify_one();
+  }
+
+  void onShare(const SharedMap::ConstPtr& share) {
+    if (share->robot_id == robot_id_) return;
+    std::string problem = share->robot_id.empty() ? "empty robot_id" : "";
+    if (problem.empty() && !share->map) problem = "no map";
+    if (problem.empty()) problem = gridMsgProblem(*share->map, static_cast<int64_t>(max_peer_cells_));
+    if (!problem.empty()) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++rejected_maps_;
+      last_problem_ = "map of '" + share->robot_id + "' rejected: " + problem;
+      NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return;
+    }
+    auto grid = std::make_shared<const OccupancyGrid>(gridFromMsg(*share->map));
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (registry_->updatePeer(share->robot_id, std::move(grid), share->version, ros::Time::now().toSec()))
+      NODELET_INFO("discovered peer %s", share->robot_id.c_str());
+    wake_.notify_one();
+  }
+
+  // The worker: one fusion at a time, never inside a callback.
+  void work() {
+    while (!stop_) {
+      std::shared_ptr<const OccupancyGrid> own, peer_map;
+      std::string peer_id;
+      size_t own_known = 0;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait_for(lock, std::chrono::milliseconds(500));
+        if (stop_) return;
+        if (own_dirty_ && own_msg_) {
+          own_grid_ = std::make_shared<const OccupancyGrid>(gridFromMsg(*own_msg_));
+          own_known_ = fusion::knownCells(*own_grid_);
+          own_dirty_ = false;
+        }
+        if (!own_grid_) continue;
+        own = own_grid_;
+        own_known = own_known_;
+        if (auto next = registry_->nextToEstimate(own_known)) {
+          peer_id = *next;
+          peer_map = registry_->peers().at(peer_id).map;
+        }
+      }
+      if (peer_map) {
+        const fusion::FusionResult result = fusion::alignMaps(*own, *peer_map, fusion_params_);
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (registry_->applyEstimate(peer_id, result, own_known, ros::Time::now().toSec())) {
+          NODELET_INFO("transform to %s: (%.2f, %.2f, %.1f deg), V %.3f", peer_id.c_str(), result.pose.x, result.pose.y,
+                       result.pose.yaw * 180 / M_PI, result.verdict.acceptance);
+          publishParentEdge();
+          merged_due_ = true;
+        }
+        publishStatus();
+      }
+      const ros::WallTime now = ros::WallTime::now();
+      if (merged_due_ || (now - last_merged_).toSec() >= merged_map_period_) publishMerged(own);
+    }
+  }
+
+  void publishParentEdge() {  // mutex_ held
+    const auto parent = registry_->parentOf();
+    if (!parent) return;
+    // The static broadcaster keeps one transform per child frame: this replaces the previous edge.
+    const Pose2D parent_in_ours = registry_->peers().at(*parent).accepted->pose;
+    static_broadcaster_.sendTransform(transformMsg(*parent + "/map", map_frame_, ros::Time(0), parent_in_ours.inverse()));
+  }
+
+  void publishMerged(const std::shared_ptr<const OccupancyGrid>& own) {
+    std::vector<std::shared_ptr<const OccupancyGrid>> keep;
+    std::vector<fusion::PlacedGrid> placed;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (const auto& [id, peer] : registry_->peers())
+        if (peer.accepted && peer.map) {
+          keep.push_back(peer.map);
+          placed.push_back({peer.map.get(), peer.accepted->pose});
+        }
+      merged_due_ = false;
+    }
+    last_merged_ = ros::WallTime::now();
+    auto msg = boost::make_shared<nav_msgs::OccupancyGrid>();
+    const OccupancyGrid merged = placed.empty() ? *own : fusion::mergeGrids(*own, placed);
+    gridToMsg(merged, map_frame_, ros::Time::now(), *msg);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      merged_ = std::make_shared<const OccupancyGrid>(merged);
+    }
+    merged_pub_.publish(nav_msgs::OccupancyGrid::ConstPtr(msg));
+  }
+
+  void publishStatus() {  // mutex_ held
+    auto array = boost::make_shared<diagnostic_msgs::DiagnosticArray>();
+    array->header.stamp = ros::Time::now();
+    for (const auto& [id, peer] : registry_->peers()) {
+      diagnostic_updater::DiagnosticStatusWrapper s;
+      s.name = id;
+      s.hardware_id = robot_id_;
+      s.summary(peer.accepted ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
+                peer.accepted ? "accepted" : "not accepted: " + peer.last_attempt.reason);
+      s.add("accepted", peer.accepted.has_value());
+      const PeerEstimateView e = view(peer);
+      s.add("x", e.x);
+      s.add("y", e.y);
+      s.add("yaw", e.yaw);
+      s.add("acceptance", e.acceptance);
+      s.add("last_estimate_time", peer.last_attempt.stamp);
+      s.add("first_map_time", peer.first_seen);
+      s.add("accepted_since", peer.accepted_since);
+      s.add("attempts", peer.attempts);
+      s.add("version", peer.version);
+      array->status.push_back(s);
+    }
+    status_pub_.publish(diagnostic_msgs::DiagnosticArray::ConstPtr(array));
+  }
+
+  struct PeerEstimateView {
+    double x = 0, y = 0, yaw = 0, acceptance = 0;
+  };
+  static PeerEstimateView view(const fusion::Peer& peer) {
+    const fusion::PeerEstimate& e = peer.accepted ? *peer.accepted : peer.last_attempt;
+    return {e.pose.x, e.pose.y, e.pose.yaw, e.acceptance};
+  }
+
+  bool onExport(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+    std::shared_ptr<const OccupancyGrid> merged;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      merged = merged_;
+    }
+    if (!merged) {
+      response.success = false;
+      response.message = "no merged map yet";
+      return true;
+    }
+    try {
+      const size_t voxels = saveOctomap(*merged, octomap_path_);
+      response.success = true;
+      response.message = octomap_path_ + ": " + std::to_string(voxels) + " leaf voxels";
+    } catch (const std::exception& e) {
+      response.success = false;
+      response.message = e.what();
+    }
+    return true;
+  }
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    size_t accepted = 0;
+    for (const auto& [id, peer] : registry_->peers()) accepted += peer.accepted.has_value();
+    status.summary(rejected_maps_ && !last_problem_.empty() ? diagnostic_msgs::DiagnosticStatus::WARN
+                                                            : diagnostic_msgs::DiagnosticStatus::OK,
+                   std::to_string(accepted) + " of " + std::to_string(registry_->peers().size()) + " peers merged");
+    status.add("peer maps rejected", rejected_maps_);
+    status.add("last problem", last_problem_);
+    // For the zero-copy test: the address of the last own map object received.
+    status.add("own map address", std::to_string(own_address_));
+    const auto parent = registry_->parentOf();
+    status.add("tf parent", parent ? *parent + "/map" : std::string("none (root)"));
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::atomic<bool> stop_{false};
+  std::thread worker_;
+  std::string robot_id_, map_frame_, octomap_path_, last_problem_;
+  double max_peer_cells_ = 64e6, merged_map_period_ = 2.0;
+  fusion::FusionParams fusion_params_;
+  std::unique_ptr<fusion::PeerRegistry> registry_;
+  nav_msgs::OccupancyGrid::ConstPtr own_msg_;
+  std::shared_ptr<const OccupancyGrid> own_grid_, merged_;
+  size_t own_known_ = 0, rejected_maps_ = 0;
+  uintptr_t own_address_ = 0;
+  bool own_dirty_ = false, merged_due_ = false;
+  ros::WallTime last_merged_;
+  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
+  ros::Publisher merged_pub_, status_pub_;
+  ros::Subscriber own_sub_, share_sub_;
+  ros::ServiceServer export_srv_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+};
+
+}  // namespace mrslam::nodelets
+
+PLUGINLIB_EXPORT_CLASS(mrslam::nodelets::MapMergeNodelet, nodelet::Nodelet)
