@@ -2,6 +2,7 @@
 // with --clock. Checks that the grid is published, that robot1/map -> robot1/odom exists, and
 // that the filtered poses follow the log's reference poses (published in the bag for
 // evaluation only) within a stated bound.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
@@ -13,6 +14,8 @@
 
 #include <map>
 #include <mutex>
+#include <set>
+#include <sstream>
 
 #include "mrslam/bench/trajectory_metrics.h"
 
@@ -26,6 +29,19 @@ struct Recorder {
   std::mutex mutex;
   std::map<uint64_t, Pose2D> estimate, reference;  // by stamp (ns)
   nav_msgs::OccupancyGrid::ConstPtr map;
+  std::set<std::string> published_addresses, merge_received_addresses;
+  void onDiagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& status : m->status)
+      for (const auto& kv : status.values) {
+        if (kv.key == "recent map addresses") {
+          std::istringstream in(kv.value);
+          std::string a;
+          while (in >> a) published_addresses.insert(a);
+        }
+        if (kv.key == "own map address" && kv.value != "0") merge_received_addresses.insert(kv.value);
+      }
+  }
   void onPose(const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex);
     estimate[m->header.stamp.toNSec()] = toPose(m->pose.pose);
@@ -51,6 +67,7 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
   auto pose_sub = nh.subscribe("/robot1/pose", 1000, &Recorder::onPose, &rec);
   auto ref_sub = nh.subscribe("/robot1/reference_pose", 1000, &Recorder::onReference, &rec);
   auto map_sub = nh.subscribe("/robot1/map", 1, &Recorder::onMap, &rec);
+  auto diagnostics_sub = nh.subscribe("/diagnostics", 100, &Recorder::onDiagnostics, &rec);
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
   ros::AsyncSpinner spinner(2);
@@ -65,6 +82,7 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
     std::lock_guard<std::mutex> lock(rec.mutex);
     if (static_cast<int>(rec.estimate.size()) >= expected_scans && rec.map) break;
   }
+  ros::WallDuration(2.5).sleep();  // diagnostics (1 Hz) report the last grids
   std::lock_guard<std::mutex> lock(rec.mutex);
   ASSERT_TRUE(rec.map) << "no grid on /robot1/map";
   EXPECT_EQ(rec.map->header.frame_id, "robot1/map");
@@ -87,6 +105,15 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
               step.rot_mean * 180 / M_PI);
   EXPECT_LT(step.trans_mean, max_trans);
   EXPECT_LT(step.rot_mean * 180 / M_PI, max_rot_deg);
+
+  // Zero copy inside the manager: every grid the merge nodelet received is an object the
+  // mapping nodelet published (same address), not a copy.
+  ASSERT_FALSE(rec.merge_received_addresses.empty()) << "the merge nodelet reported no map";
+  size_t same = 0;
+  for (const auto& address : rec.merge_received_addresses) same += rec.published_addresses.count(address);
+  std::printf("zero copy: %zu of %zu grids received by the merge nodelet have a published address\n", same,
+              rec.merge_received_addresses.size());
+  EXPECT_EQ(same, rec.merge_received_addresses.size());
 }
 
 }  // namespace

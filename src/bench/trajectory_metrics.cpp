@@ -47,6 +47,22 @@ std::vector<std::pair<size_t, size_t>> randomPairs(size_t n, size_t count, unsig
   return pairs;
 }
 
+Pose2D fitRigid(const std::vector<Pose2D>& from, const std::vector<Pose2D>& to) {
+  const size_t n = std::min(from.size(), to.size());
+  if (n < 2) throw std::invalid_argument("fitRigid needs at least two pose pairs");
+  double fx = 0, fy = 0, tx = 0, ty = 0;
+  for (size_t i = 0; i < n; ++i) fx += from[i].x, fy += from[i].y, tx += to[i].x, ty += to[i].y;
+  fx /= n, fy /= n, tx /= n, ty /= n;
+  double dot = 0, cross = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double ax = from[i].x - fx, ay = from[i].y - fy, bx = to[i].x - tx, by = to[i].y - ty;
+    dot += ax * bx + ay * by;
+    cross += ax * by - ay * bx;
+  }
+  const double yaw = std::atan2(cross, dot), c = std::cos(yaw), s = std::sin(yaw);
+  return {tx - (c * fx - s * fy), ty - (s * fx + c * fy), yaw};
+}
+
 std::vector<std::pair<double, Pose2D>> readTrajectory(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open");

@@ -20,6 +20,7 @@
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <deque>
 #include <memory>
 #include <mutex>
 
@@ -119,7 +120,10 @@ class GridMappingNodelet : public nodelet::Nodelet {
     }
     metadata_pub_.publish(grid->info);
     map_pub_.publish(nav_msgs::OccupancyGridConstPtr(grid));  // never modified after this line
+    std::lock_guard<std::mutex> lock(mutex_);
     ++published_;
+    recent_addresses_.push_back(reinterpret_cast<uintptr_t>(grid.get()));
+    if (recent_addresses_.size() > 20) recent_addresses_.pop_front();
   }
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
@@ -132,6 +136,10 @@ class GridMappingNodelet : public nodelet::Nodelet {
     status.add("maps published", published_);
     status.add("width", g.width);
     status.add("height", g.height);
+    // For the zero-copy test: subscribers in this manager must receive this very object.
+    std::string addresses;
+    for (uintptr_t a : recent_addresses_) addresses += std::to_string(a) + " ";
+    status.add("recent map addresses", addresses);
   }
 
   std::mutex mutex_;
@@ -141,6 +149,7 @@ class GridMappingNodelet : public nodelet::Nodelet {
   std::unique_ptr<slam::GridMapper> mapper_;
   uint64_t published_version_ = 0;
   size_t inserted_ = 0, dropped_ = 0, published_ = 0;
+  std::deque<uintptr_t> recent_addresses_;  // of the last 20 grids published
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   message_filters::Subscriber<sensor_msgs::LaserScan> scan_sub_;

@@ -58,6 +58,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
     pnh.param("consistent_m", registry_params.consistent_m, registry_params.consistent_m);
     pnh.param("consistent_deg", registry_params.consistent_deg, registry_params.consistent_deg);
     pnh.param("switch_margin", registry_params.switch_margin, registry_params.switch_margin);
+    int min_known = static_cast<int>(registry_params.min_known_cells);
+    pnh.param("min_known_cells", min_known, min_known);
+    registry_params.min_known_cells = static_cast<size_t>(std::max(0, min_known));
+    pnh.param("revoke_after_rejections", registry_params.revoke_after_rejections, registry_params.revoke_after_rejections);
     registry_ = std::make_unique<fusion::PeerRegistry>(robot_id_, registry_params);
     if (!fusion_config.empty()) {
       try {
@@ -132,9 +136,14 @@ class MapMergeNodelet : public nodelet::Nodelet {
       if (peer_map) {
         const fusion::FusionResult result = fusion::alignMaps(*own, *peer_map, fusion_params_);
         std::lock_guard<std::mutex> lock(mutex_);
+        const bool had = registry_->peers().at(peer_id).accepted.has_value();
         if (registry_->applyEstimate(peer_id, result, own_known, ros::Time::now().toSec())) {
-          NODELET_INFO("transform to %s: (%.2f, %.2f, %.1f deg), V %.3f", peer_id.c_str(), result.pose.x, result.pose.y,
-                       result.pose.yaw * 180 / M_PI, result.verdict.acceptance);
+          if (!registry_->peers().at(peer_id).accepted)
+            NODELET_WARN("transform to %s revoked: rejected %d times in a row on grown maps (%s)", peer_id.c_str(),
+                         registry_->peers().at(peer_id).rejections_in_a_row, result.verdict.reason.c_str());
+          else if (!had)  // the first accept is news; refinements are not
+            NODELET_INFO("transform to %s: (%.2f, %.2f, %.1f deg), V %.3f", peer_id.c_str(), result.pose.x,
+                         result.pose.y, result.pose.yaw * 180 / M_PI, result.verdict.acceptance);
           publishParentEdge();
           merged_due_ = true;
         }

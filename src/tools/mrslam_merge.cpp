@@ -2,7 +2,8 @@
 //
 //   mrslam_merge [--json] [-o merged.yaml [--png]] [--config fusion.yaml] A.yaml B.yaml [C.yaml ...]
 //
-// -o writes the merged map (map_server yaml + pgm, or png with --png) in A's frame.
+// -o writes the merged map (map_server yaml + pgm, or png with --png) in A's frame;
+// --octomap writes it as an OctoMap (octomap::OcTree binary .bt, walls as 0.5 m columns).
 // Every map after the first is aligned to A. With three or more maps, a map that does not
 // match A directly is chained through any map already accepted (B in A and C in B give C
 // in A). Exit status: 0 when the run completed (rejected merges included), 2 on bad input.
@@ -17,6 +18,7 @@
 #include "mrslam/fusion/grid_merge.h"
 #include "mrslam/fusion/map_fusion.h"
 #include "mrslam/map_io.h"
+#include "mrslam/octomap_export.h"
 
 namespace {
 
@@ -25,7 +27,8 @@ using mrslam::Pose2D;
 namespace fusion = mrslam::fusion;
 
 constexpr const char* kUsage =
-    "usage: mrslam_merge [--json] [-o merged.yaml [--png]] [--config fusion.yaml] [--timing] A.yaml B.yaml [C.yaml ...]\n";
+    "usage: mrslam_merge [--json] [-o merged.yaml [--png]] [--octomap merged.bt] [--config fusion.yaml] [--timing]\n"
+    "                    A.yaml B.yaml [C.yaml ...]\n";
 
 int badInput(const std::string& message) {
   std::cerr << "mrslam_merge: " << message << "\n";
@@ -55,7 +58,7 @@ int main(int argc, char** argv) {
   // Our own messages name the file and the problem; OpenCV's warnings would repeat them.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   bool json = false, png = false, timing = false;
-  std::string output, config;
+  std::string output, config, octomap;
   std::vector<std::string> files;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -65,9 +68,9 @@ int main(int argc, char** argv) {
       png = true;
     } else if (arg == "--timing") {
       timing = true;
-    } else if (arg == "-o" || arg == "--config") {
+    } else if (arg == "-o" || arg == "--config" || arg == "--octomap") {
       if (i + 1 >= argc) return badInput(arg + " needs a file name\n" + kUsage);
-      (arg == "-o" ? output : config) = argv[++i];
+      (arg == "-o" ? output : arg == "--config" ? config : octomap) = argv[++i];
     } else if (arg == "-h" || arg == "--help") {
       std::cout << kUsage;
       return 0;
@@ -151,12 +154,14 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (!output.empty()) {
+  if (!output.empty() || !octomap.empty()) {
     std::vector<fusion::PlacedGrid> placed;
     for (size_t i = 1; i < maps.size(); ++i)
       if (outcomes[i].pose_in_a) placed.push_back({&maps[i], *outcomes[i].pose_in_a});
     try {
-      mrslam::saveMap(fusion::mergeGrids(maps[0], placed), output, png ? ".png" : ".pgm");
+      const OccupancyGrid merged = fusion::mergeGrids(maps[0], placed);
+      if (!output.empty()) mrslam::saveMap(merged, output, png ? ".png" : ".pgm");
+      if (!octomap.empty()) mrslam::saveOctomap(merged, octomap);
     } catch (const std::exception& e) {
       return badInput(e.what());
     }

@@ -26,6 +26,10 @@ std::vector<std::pair<size_t, size_t>> consecutivePairs(size_t n, size_t step);
 // `count` pairs of distinct scans drawn with a fixed seed.
 std::vector<std::pair<size_t, size_t>> randomPairs(size_t n, size_t count, unsigned seed);
 
+// The rigid transform T minimising sum |T * from_i - to_i|^2 over the positions (2D Umeyama,
+// no scale): where a trajectory's frame sits in the reference's frame. Needs >= 2 poses.
+Pose2D fitRigid(const std::vector<Pose2D>& from, const std::vector<Pose2D>& to);
+
 // Reads "timestamp x y yaw" lines; throws std::runtime_error naming the line on bad input.
 std::vector<std::pair<double, Pose2D>> readTrajectory(const std::string& path);
 

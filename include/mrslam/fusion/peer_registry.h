@@ -27,6 +27,10 @@ struct PeerRegistryParams {
   double consistent_deg = 3.0;      // ...this angle of the accepted one is "the same place"
   double switch_margin = 0.01;      // an inconsistent estimate replaces the accepted one only if
                                     // its acceptance index V is higher by this much
+  size_t min_known_cells = 20000;   // no estimate before both maps know this many cells (50 m2 at
+                                    // 0.05 m): a few scans are too little evidence either way
+  int revoke_after_rejections = 3;  // an accepted transform is dropped after this many rejections
+                                    // in a row on grown maps: a true overlap only gains evidence
 };
 
 struct PeerEstimate {
@@ -45,6 +49,7 @@ struct Peer {
   size_t known_cells = 0;
   size_t known_at_estimate = 0, own_known_at_estimate = 0;
   int attempts = 0;
+  int rejections_in_a_row = 0;
   std::optional<PeerEstimate> accepted;  // the transform in use
   PeerEstimate last_attempt;
   double accepted_since = 0;             // when the first transform was accepted
@@ -62,7 +67,8 @@ class PeerRegistry {
   // The peer whose transform should be (re-)estimated next, given our map's known cells: never
   // estimated first, then the one whose maps grew the most. None when nothing needs work.
   std::optional<std::string> nextToEstimate(size_t own_known_cells) const;
-  // Records an estimate with hysteresis. Returns true when the transform in use changed.
+  // Records an estimate with hysteresis. Returns true when the transform in use changed
+  // (replaced or revoked).
   bool applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now);
   // Our map frame's tf parent under the convention above.
   std::optional<std::string> parentOf() const;

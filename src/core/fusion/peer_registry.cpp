@@ -35,7 +35,7 @@ std::optional<std::string> PeerRegistry::nextToEstimate(size_t own_known_cells) 
   std::optional<std::string> best;
   double best_growth = 0;
   for (const auto& [id, peer] : peers_) {
-    if (!peer.map || own_known_cells == 0) continue;
+    if (!peer.map || own_known_cells < params_.min_known_cells || peer.known_cells < params_.min_known_cells) continue;
     if (peer.attempts == 0) return id;
     const double peer_growth = peer.known_at_estimate ? static_cast<double>(peer.known_cells) / peer.known_at_estimate - 1 : 1;
     const double own_growth = peer.own_known_at_estimate ? static_cast<double>(own_known_cells) / peer.own_known_at_estimate - 1 : 1;
@@ -54,7 +54,14 @@ bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& resu
   peer.own_known_at_estimate = own_known_cells;
   PeerEstimate estimate{result.accepted, result.pose, result.verdict.acceptance, now, result.verdict.reason};
   peer.last_attempt = estimate;
-  if (!estimate.accepted) return false;  // keep whatever we had
+  if (!estimate.accepted) {
+    if (++peer.rejections_in_a_row >= params_.revoke_after_rejections && peer.accepted) {
+      peer.accepted.reset();  // the maps grew and no longer support it
+      return true;
+    }
+    return false;  // otherwise keep what we had
+  }
+  peer.rejections_in_a_row = 0;
   if (!peer.accepted) {
     peer.accepted = estimate;
     peer.accepted_since = now;

@@ -1,0 +1,204 @@
+// rostest (test/multi_robot.test): three robots from three time windows of the real Intel log,
+// all under one master, each running robot.launch (front end, map share, map merge).
+//
+// Ground truth. The corrected log's reference poses are one consistent trajectory in one world
+// frame. Each robot's map frame is where its own filter put it, so we place it in the world by
+// the rigid transform T_N that best aligns (least squares) the robot's published poses with the
+// reference poses of the same scans (both in the bag / on the robot's topics). The true pose of
+// robotM/map in robotN/map is T_N^-1 * T_M; it absorbs how each robot defined its map frame
+// and averages its drift over the window.
+//
+// Checks: every merger accepts every peer within 1 degree and 2 cells of the truth; the tf tree
+// connects every robot's map frame from every other; merged maps are published; a peer that
+// sends a malformed grid is refused and one that sends a map of another building is rejected.
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <gtest/gtest.h>
+#include <mrslam/LocalMapShare.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/ros.h>
+#include <tf2/utils.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <map>
+#include <mutex>
+
+#include "mrslam/bench/trajectory_metrics.h"
+#include "mrslam/map_io.h"
+
+namespace {
+
+using mrslam::Pose2D;
+
+Pose2D toPose(const geometry_msgs::Pose& p) { return {p.position.x, p.position.y, tf2::getYaw(p.orientation)}; }
+
+struct PeerStatus {
+  bool accepted = false;
+  Pose2D pose;
+  double acceptance = 0;
+};
+
+struct Robot {
+  std::map<uint64_t, Pose2D> estimate, reference;
+  std::map<std::string, PeerStatus> peers;
+  nav_msgs::OccupancyGrid::ConstPtr merged;
+  std::vector<ros::Subscriber> subs;
+};
+
+class MultiRobotTest : public ::testing::Test {
+ protected:
+  std::mutex mutex;
+  std::map<std::string, Robot> robots;
+
+  void subscribe(ros::NodeHandle& nh, const std::string& name) {
+    Robot& r = robots[name];
+    r.subs.push_back(nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+        "/" + name + "/pose", 1000, [this, name](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex);
+          robots[name].estimate[m->header.stamp.toNSec()] = toPose(m->pose.pose);
+        }));
+    r.subs.push_back(nh.subscribe<geometry_msgs::PoseStamped>(
+        "/" + name + "/reference_pose", 1000, [this, name](const geometry_msgs::PoseStamped::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex);
+          robots[name].reference[m->header.stamp.toNSec()] = toPose(m->pose);
+        }));
+    r.subs.push_back(nh.subscribe<nav_msgs::OccupancyGrid>("/" + name + "/merged_map", 1,
+                                                           [this, name](const nav_msgs::OccupancyGrid::ConstPtr& m) {
+                                                             std::lock_guard<std::mutex> lock(mutex);
+                                                             robots[name].merged = m;
+                                                           }));
+    r.subs.push_back(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+        "/" + name + "/merge_status", 1, [this, name](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex);
+          auto& peers = robots[name].peers;
+          peers.clear();
+          for (const auto& status : m->status) {
+            PeerStatus p;
+            std::map<std::string, std::string> v;
+            for (const auto& kv : status.values) v[kv.key] = kv.value;
+            p.accepted = v["accepted"] == "True";
+            p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
+            p.acceptance = std::stod(v["acceptance"]);
+            peers[status.name] = p;
+          }
+        }));
+  }
+
+  bool allAccepted(const std::vector<std::string>& names) {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& n : names)
+      for (const auto& m : names)
+        if (n != m && !(robots[n].peers.count(m) && robots[n].peers[m].accepted)) return false;
+    return true;
+  }
+
+  // Where robot `name`'s map frame sits in the log's world frame (see the file comment).
+  Pose2D frameInWorld(const std::string& name) {
+    std::vector<Pose2D> from, to;
+    for (const auto& [stamp, pose] : robots[name].estimate) {
+      const auto ref = robots[name].reference.find(stamp);
+      if (ref != robots[name].reference.end()) from.push_back(pose), to.push_back(ref->second);
+    }
+    EXPECT_GT(from.size(), 20u) << name << ": too few poses with a reference";
+    return mrslam::bench::fitRigid(from, to);
+  }
+};
+
+mrslam::LocalMapShare shareOf(const std::string& id, const mrslam::OccupancyGrid& grid, uint32_t version) {
+  mrslam::LocalMapShare share;
+  share.header.stamp = ros::Time::now();
+  share.header.frame_id = id + "/map";
+  share.robot_id = id;
+  share.map.header = share.header;
+  share.map.info.resolution = static_cast<float>(grid.resolution);
+  share.map.info.width = static_cast<uint32_t>(grid.width);
+  share.map.info.height = static_cast<uint32_t>(grid.height);
+  share.map.info.origin.position.x = grid.origin.x;
+  share.map.info.origin.position.y = grid.origin.y;
+  share.map.info.origin.orientation.w = 1;
+  share.map.data = grid.data;
+  share.version = version;
+  return share;
+}
+
+TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
+  ros::NodeHandle nh, pnh("~");
+  std::vector<std::string> names;
+  std::string data_dir;
+  double max_error_cells = 2.0, max_error_deg = 1.0, timeout = 120.0;
+  pnh.param("robots", names, std::vector<std::string>{"robot1", "robot2", "robot3"});
+  pnh.param<std::string>("data_dir", data_dir, "");
+  pnh.param("max_error_cells", max_error_cells, max_error_cells);
+  pnh.param("max_error_deg", max_error_deg, max_error_deg);
+  pnh.param("timeout", timeout, timeout);
+  for (const auto& n : names) subscribe(nh, n);
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  ros::Publisher share_pub = nh.advertise<mrslam::LocalMapShare>("/mrslam/map_share", 10);
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+
+  // Two misbehaving peers: one sends a malformed grid (data shorter than width x height), one
+  // the map of another building (Freiburg 101, a real map).
+  mrslam::OccupancyGrid malformed;
+  malformed.width = 200, malformed.height = 200, malformed.resolution = 0.05;
+  malformed.data.assign(1000, 0);
+  const mrslam::OccupancyGrid other = mrslam::loadMap(data_dir + "/maps/reference/freiburg-101.yaml");
+
+  const ros::WallTime start = ros::WallTime::now();
+  uint32_t version = 0;
+  while ((ros::WallTime::now() - start).toSec() < timeout) {
+    ros::WallDuration(1.0).sleep();
+    ++version;
+    if (version % 5 == 1) {
+      share_pub.publish(shareOf("intruder_malformed", malformed, version));
+      share_pub.publish(shareOf("zz_other_building", other, version));
+    }
+    bool bag_done;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      bag_done = robots[names[0]].estimate.size() > 30;
+    }
+    if (bag_done && allAccepted(names) && (ros::WallTime::now() - start).toSec() > 20) break;
+  }
+  ros::WallDuration(3.0).sleep();  // the last estimates of the bag's end
+
+  for (const auto& n : names)
+    for (const auto& m : names)
+      if (n != m)
+        EXPECT_TRUE(buffer.canTransform(n + "/map", m + "/map", ros::Time(0)))
+            << "tf does not connect " << n << "/map to " << m << "/map";
+
+  std::lock_guard<std::mutex> lock(mutex);
+  std::map<std::string, Pose2D> world;
+  for (const auto& n : names) world[n] = frameInWorld(n);
+  for (const auto& n : names) {
+    Robot& r = robots[n];
+    ASSERT_TRUE(r.merged) << n << ": no merged map";
+    EXPECT_FALSE(r.peers.count("intruder_malformed")) << n << " took a malformed map";
+    ASSERT_TRUE(r.peers.count("zz_other_building")) << n << " never saw the other building's map";
+    EXPECT_FALSE(r.peers["zz_other_building"].accepted) << n << " merged a map of another building";
+    for (const auto& m : names) {
+      if (n == m) continue;
+      ASSERT_TRUE(r.peers.count(m)) << n << " never discovered " << m;
+      const PeerStatus& p = r.peers[m];
+      EXPECT_TRUE(p.accepted) << n << " did not accept " << m;
+      const Pose2D truth = world[n].inverse().compose(world[m]);
+      const double dyaw = std::abs(Pose2D::normalizeAngle(p.pose.yaw - truth.yaw)) * 180 / M_PI;
+      const double dcells = std::hypot(p.pose.x - truth.x, p.pose.y - truth.y) / 0.05;
+      std::printf("%s <- %s: V %.3f, error %.2f cells, %.2f deg\n", n.c_str(), m.c_str(), p.acceptance, dcells, dyaw);
+      EXPECT_LE(dyaw, max_error_deg) << n << " <- " << m;
+      EXPECT_LE(dcells, max_error_cells) << n << " <- " << m;
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_multi_robot");
+  return RUN_ALL_TESTS();
+}

@@ -1,0 +1,115 @@
+// The ROS-free parts of the multi-robot stack: peer bookkeeping (discovery, re-estimation,
+// hysteresis, the tf frame convention) and the OctoMap export, on real maps.
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <cstdio>
+
+#include "mrslam/fusion/peer_registry.h"
+#include "mrslam/map_io.h"
+#include "mrslam/octomap_export.h"
+#include "test_data.h"
+
+namespace mrslam::fusion {
+namespace {
+
+std::shared_ptr<const OccupancyGrid> realMap() {
+  static const auto map = std::make_shared<const OccupancyGrid>(loadMap(test::referenceMap("intel")));
+  return map;
+}
+
+FusionResult estimate(bool accepted, Pose2D pose, double v) {
+  FusionResult r;
+  r.accepted = accepted;
+  r.pose = pose;
+  r.verdict.acceptance = v;
+  r.verdict.accepted = accepted;
+  r.verdict.reason = accepted ? "" : "test rejection";
+  return r;
+}
+
+TEST(PeerRegistry, DiscoversPeersAndReEstimatesOnlyWhenMapsGrow) {
+  PeerRegistry registry("robot2");
+  const size_t own = knownCells(*realMap());
+  EXPECT_FALSE(registry.nextToEstimate(own));
+  EXPECT_TRUE(registry.updatePeer("robot1", realMap(), 1, 0.0));   // discovered
+  EXPECT_FALSE(registry.updatePeer("robot1", realMap(), 2, 1.0));  // known
+  EXPECT_EQ(registry.nextToEstimate(own).value_or(""), "robot1");  // never estimated
+  registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, 2.0);
+  EXPECT_FALSE(registry.nextToEstimate(own)) << "nothing grew";
+  EXPECT_TRUE(registry.nextToEstimate(own * 12 / 10)) << "our map grew by 20 %";
+  EXPECT_FALSE(registry.nextToEstimate(1000)) << "maps this small are not estimated";
+}
+
+TEST(PeerRegistry, HysteresisRefinesKeepsAndRevokes) {
+  PeerRegistry registry("robot2");
+  const size_t own = knownCells(*realMap());
+  registry.updatePeer("robot1", realMap(), 1, 0.0);
+  EXPECT_TRUE(registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, 1.0));
+  // A nearby estimate refines it, even with a slightly lower V.
+  EXPECT_TRUE(registry.applyEstimate("robot1", estimate(true, {1.1, 2, 0.11}, 0.979), own, 2.0));
+  EXPECT_NEAR(registry.peers().at("robot1").accepted->pose.x, 1.1, 1e-12);
+  // Elsewhere and not clearly better: kept.
+  EXPECT_FALSE(registry.applyEstimate("robot1", estimate(true, {8, -3, 2.0}, 0.985), own, 3.0));
+  EXPECT_NEAR(registry.peers().at("robot1").accepted->pose.x, 1.1, 1e-12);
+  // Elsewhere and clearly better: switched.
+  EXPECT_TRUE(registry.applyEstimate("robot1", estimate(true, {8, -3, 2.0}, 0.995), own, 4.0));
+  EXPECT_NEAR(registry.peers().at("robot1").accepted->pose.x, 8.0, 1e-12);
+  // Two rejections keep it, the third in a row revokes it.
+  EXPECT_FALSE(registry.applyEstimate("robot1", estimate(false, {}, 0.9), own, 5.0));
+  EXPECT_FALSE(registry.applyEstimate("robot1", estimate(false, {}, 0.9), own, 6.0));
+  EXPECT_TRUE(registry.applyEstimate("robot1", estimate(false, {}, 0.9), own, 7.0));
+  EXPECT_FALSE(registry.peers().at("robot1").accepted);
+}
+
+TEST(PeerRegistry, RestartedPeerIsForgottenAndTheTfParentIsTheSmallestAcceptedIdBelowUs) {
+  PeerRegistry registry("robot3");
+  const size_t own = knownCells(*realMap());
+  for (const char* id : {"robot1", "robot2", "robot4"}) registry.updatePeer(id, realMap(), 5, 0.0);
+  EXPECT_FALSE(registry.parentOf()) << "nothing accepted: robot3/map is a root";
+  registry.applyEstimate("robot4", estimate(true, {}, 0.99), own, 1.0);
+  EXPECT_FALSE(registry.parentOf()) << "robot4 hangs below robot3, never above";
+  registry.applyEstimate("robot2", estimate(true, {}, 0.99), own, 1.0);
+  EXPECT_EQ(registry.parentOf().value_or(""), "robot2");
+  registry.applyEstimate("robot1", estimate(true, {}, 0.99), own, 1.0);
+  EXPECT_EQ(registry.parentOf().value_or(""), "robot1");
+  // robot1 restarts (its version counter starts again): a new map frame, nothing carried over.
+  EXPECT_TRUE(registry.updatePeer("robot1", realMap(), 1, 2.0));
+  EXPECT_FALSE(registry.peers().at("robot1").accepted);
+  EXPECT_EQ(registry.parentOf().value_or(""), "robot2");
+}
+
+}  // namespace
+}  // namespace mrslam::fusion
+
+namespace mrslam {
+namespace {
+
+TEST(OctomapExport, RealMapWallsBecomeOccupiedColumnsAndFreeCellsFree) {
+  const OccupancyGrid grid = loadMap(test::referenceMap("intel"));
+  const std::string path = ::testing::TempDir() + "/intel.bt";
+  ASSERT_GT(saveOctomap(grid, path, 0.5), 0u);
+  octomap::OcTree tree(path);
+  ASSERT_GT(tree.size(), 0u);
+  EXPECT_NEAR(tree.getResolution(), grid.resolution, 1e-9);
+  int occupied = 0, free = 0, checked = 0;
+  for (int row = 0; row < grid.height && checked < 4000; row += 7)
+    for (int col = 0; col < grid.width && checked < 4000; col += 7) {
+      const int v = grid.at(col, row);
+      if (v < 0 || (v > 25 && v < 65)) continue;
+      const octomap::point3d p(static_cast<float>(grid.origin.x + (col + 0.5) * grid.resolution),
+                               static_cast<float>(grid.origin.y + (row + 0.5) * grid.resolution), 0.3f);
+      const octomap::OcTreeNode* node = tree.search(p);
+      ASSERT_NE(node, nullptr);
+      ++checked;
+      if (tree.isNodeOccupied(node) == (v >= 65)) (v >= 65 ? occupied : free)++;
+      else ADD_FAILURE() << "cell " << col << "," << row << " value " << v;
+    }
+  EXPECT_GT(occupied, 20);
+  EXPECT_GT(free, 1000);
+  std::remove(path.c_str());
+  EXPECT_THROW(saveOctomap(grid, "/nonexistent/dir/x.bt"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace mrslam
