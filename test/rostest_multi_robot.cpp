@@ -8,7 +8,8 @@
 // robotM/map in robotN/map is T_N^-1 * T_M; it absorbs how each robot defined its map frame
 // and averages its drift over the window.
 //
-// Checks: every merger accepts every peer within 1 degree and 2 cells of the truth; the tf tree
+// Checks: every merger accepts every peer within 1 degree and 2 cells of the truth (the cells
+// measured where the peer's map lands: at the centre of its trajectory); the tf tree
 // connects every robot's map frame from every other; merged maps are published; a peer that
 // sends a malformed grid is refused and one that sends a map of another building is rejected.
 #include <diagnostic_msgs/DiagnosticArray.h>
@@ -187,7 +188,15 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       EXPECT_TRUE(p.accepted) << n << " did not accept " << m;
       const Pose2D truth = world[n].inverse().compose(world[m]);
       const double dyaw = std::abs(Pose2D::normalizeAngle(p.pose.yaw - truth.yaw)) * 180 / M_PI;
-      const double dcells = std::hypot(p.pose.x - truth.x, p.pose.y - truth.y) / 0.05;
+      // As in the merge benchmark, the translation error is where the peer's map lands: at the
+      // centre of what it mapped (the centroid of its trajectory, in its own map frame).
+      double cx = 0, cy = 0;
+      for (const auto& [stamp, pose] : robots[m].estimate) cx += pose.x, cy += pose.y;
+      cx /= std::max<size_t>(1, robots[m].estimate.size()), cy /= std::max<size_t>(1, robots[m].estimate.size());
+      double ex, ey, tx, ty;
+      p.pose.apply(cx, cy, ex, ey);
+      truth.apply(cx, cy, tx, ty);
+      const double dcells = std::hypot(ex - tx, ey - ty) / 0.05;
       std::printf("%s <- %s: V %.3f, error %.2f cells, %.2f deg\n", n.c_str(), m.c_str(), p.acceptance, dcells, dyaw);
       EXPECT_LE(dyaw, max_error_deg) << n << " <- " << m;
       EXPECT_LE(dcells, max_error_cells) << n << " <- " << m;

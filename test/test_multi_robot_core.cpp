@@ -31,14 +31,17 @@ FusionResult estimate(bool accepted, Pose2D pose, double v) {
 TEST(PeerRegistry, DiscoversPeersAndReEstimatesOnlyWhenMapsGrow) {
   PeerRegistry registry("robot2");
   const size_t own = knownCells(*realMap());
-  EXPECT_FALSE(registry.nextToEstimate(own));
+  EXPECT_FALSE(registry.nextToEstimate(own, 0.0));
   EXPECT_TRUE(registry.updatePeer("robot1", realMap(), 1, 0.0));   // discovered
   EXPECT_FALSE(registry.updatePeer("robot1", realMap(), 2, 1.0));  // known
-  EXPECT_EQ(registry.nextToEstimate(own).value_or(""), "robot1");  // never estimated
+  EXPECT_EQ(registry.nextToEstimate(own, 1.0).value_or(""), "robot1");  // never estimated
   registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, 2.0);
-  EXPECT_FALSE(registry.nextToEstimate(own)) << "nothing grew";
-  EXPECT_TRUE(registry.nextToEstimate(own * 12 / 10)) << "our map grew by 20 %";
-  EXPECT_FALSE(registry.nextToEstimate(1000)) << "maps this small are not estimated";
+  EXPECT_FALSE(registry.nextToEstimate(own, 3.0)) << "nothing grew";
+  EXPECT_FALSE(registry.nextToEstimate(own, 100.0)) << "nothing changed, however long ago";
+  EXPECT_TRUE(registry.nextToEstimate(own * 12 / 10, 3.0)) << "our map grew by 20 %";
+  EXPECT_FALSE(registry.nextToEstimate(own + 10, 3.0)) << "a small change waits for the refresh period";
+  EXPECT_TRUE(registry.nextToEstimate(own + 10, 13.0)) << "...and is estimated after it";
+  EXPECT_FALSE(registry.nextToEstimate(1000, 100.0)) << "maps this small are not estimated";
 }
 
 TEST(PeerRegistry, HysteresisRefinesKeepsAndRevokes) {

@@ -61,6 +61,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     int min_known = static_cast<int>(registry_params.min_known_cells);
     pnh.param("min_known_cells", min_known, min_known);
     registry_params.min_known_cells = static_cast<size_t>(std::max(0, min_known));
+    pnh.param("refresh_period", registry_params.refresh_period, registry_params.refresh_period);
     pnh.param("revoke_after_rejections", registry_params.revoke_after_rejections, registry_params.revoke_after_rejections);
     registry_ = std::make_unique<fusion::PeerRegistry>(robot_id_, registry_params);
     if (!fusion_config.empty()) {
@@ -128,7 +129,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
         if (!own_grid_) continue;
         own = own_grid_;
         own_known = own_known_;
-        if (auto next = registry_->nextToEstimate(own_known)) {
+        if (auto next = registry_->nextToEstimate(own_known, ros::Time::now().toSec())) {
           peer_id = *next;
           peer_map = registry_->peers().at(peer_id).map;
         }

@@ -29,6 +29,8 @@ struct PeerRegistryParams {
                                     // its acceptance index V is higher by this much
   size_t min_known_cells = 20000;   // no estimate before both maps know this many cells (50 m2 at
                                     // 0.05 m): a few scans are too little evidence either way
+  double refresh_period = 10.0;     // s: a peer whose map (or ours) changed at all is re-estimated
+                                    // after this long, so the final maps are always used
   int revoke_after_rejections = 3;  // an accepted transform is dropped after this many rejections
                                     // in a row on grown maps: a true overlap only gains evidence
 };
@@ -65,8 +67,9 @@ class PeerRegistry {
   // frame is new, so what we knew about it is dropped. Returns true when the peer is new or rejoined.
   bool updatePeer(const std::string& id, std::shared_ptr<const OccupancyGrid> map, uint32_t version, double now);
   // The peer whose transform should be (re-)estimated next, given our map's known cells: never
-  // estimated first, then the one whose maps grew the most. None when nothing needs work.
-  std::optional<std::string> nextToEstimate(size_t own_known_cells) const;
+  // estimated first, then the one whose maps grew the most, then one whose maps changed at all
+  // and whose estimate is older than refresh_period. None when nothing needs work.
+  std::optional<std::string> nextToEstimate(size_t own_known_cells, double now) const;
   // Records an estimate with hysteresis. Returns true when the transform in use changed
   // (replaced or revoked).
   bool applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now);
