@@ -1,6 +1,6 @@
 #include "mrslam/bench/pair_maker.h"
+#include "mrslam/slam/robot_log.h"
 
-#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,49 +9,14 @@
 #include <stdexcept>
 
 namespace mrslam::bench {
-namespace {
-
-std::vector<std::string> readLines(const std::string& path) {
-  gzFile f = gzopen(path.c_str(), "rb");  // reads plain text too
-  if (!f) throw std::runtime_error(path + ": cannot open");
-  std::vector<std::string> lines;
-  std::string current;
-  char buffer[1 << 16];
-  int n;
-  while ((n = gzread(f, buffer, sizeof(buffer))) > 0) {
-    for (int i = 0; i < n; ++i) {
-      if (buffer[i] == '\n') lines.push_back(std::move(current)), current.clear();
-      else current += buffer[i];
-    }
-  }
-  gzclose(f);
-  if (!current.empty()) lines.push_back(current);
-  return lines;
-}
-
-}  // namespace
-
 std::vector<LaserScan2D> readCarmenScans(const std::string& path, int* skipped_lines) {
+  // One CARMEN reader for the whole project: the front end's (robot_log.h).
+  const slam::RobotLog log = slam::readCarmenLog(path);
   std::vector<LaserScan2D> scans;
-  int skipped = 0;
-  for (const std::string& line : readLines(path)) {
-    if (line.rfind("FLASER ", 0) != 0) continue;
-    std::istringstream in(line.substr(7));
-    int n = 0;
-    LaserScan2D scan;
-    if (!(in >> n) || n <= 0 || n > 10000) { ++skipped; continue; }
-    scan.ranges.resize(n);
-    bool ok = true;
-    for (int i = 0; i < n && ok; ++i) ok = static_cast<bool>(in >> scan.ranges[i]);
-    double ox, oy, ot;
-    ok = ok && (in >> scan.pose.x >> scan.pose.y >> scan.pose.yaw >> ox >> oy >> ot >> scan.timestamp);
-    if (!ok) { ++skipped; continue; }
-    // 180 degrees field of view: n beams at pi / n (180 or 360 beams) or pi / (n - 1) (181, 361).
-    scan.angle_increment = (n % 2 == 0) ? M_PI / n : M_PI / (n - 1);
-    scan.angle_min = -M_PI / 2;
-    scans.push_back(std::move(scan));
-  }
-  if (skipped_lines) *skipped_lines = skipped;
+  scans.reserve(log.records.size());
+  for (const slam::LogRecord& r : log.records)
+    scans.push_back({r.scan.stamp, r.reference, r.scan.angle_min, r.scan.angle_increment, r.scan.ranges});
+  if (skipped_lines) *skipped_lines = static_cast<int>(log.warnings.size());
   return scans;
 }
 
