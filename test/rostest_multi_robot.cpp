@@ -39,6 +39,7 @@ struct PeerStatus {
   bool accepted = false;
   Pose2D pose;
   double acceptance = 0;
+  int version = 0;
 };
 
 struct Robot {
@@ -82,6 +83,7 @@ class MultiRobotTest : public ::testing::Test {
             p.accepted = v["accepted"] == "True";
             p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
             p.acceptance = std::stod(v["acceptance"]);
+            p.version = std::stoi(v["version"]);
             peers[status.name] = p;
           }
         }));
@@ -166,6 +168,33 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   }
   ros::WallDuration(3.0).sleep();  // the last estimates of the bag's end
 
+  // A peer joins late, then restarts (its version counter starts again).
+  const mrslam::OccupancyGrid reference = mrslam::loadMap(data_dir + "/maps/reference/intel.yaml");
+  auto everyone = [&](auto predicate) {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& n : names)
+      if (!robots[n].peers.count("zlate_reference") || !predicate(robots[n].peers["zlate_reference"])) return false;
+    return true;
+  };
+  bool joined = false, rejoined = false;
+  for (int i = 0; i < 40 && !joined; ++i) {
+    share_pub.publish(shareOf("zlate_reference", reference, 10 + i));
+    ros::WallDuration(1.0).sleep();
+    joined = everyone([](const PeerStatus& p) { return p.accepted && p.version >= 10; });
+  }
+  std::map<std::string, PeerStatus> late;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& n : names) late[n] = robots[n].peers["zlate_reference"];
+  }
+  for (int i = 0; i < 40 && joined && !rejoined; ++i) {
+    share_pub.publish(shareOf("zlate_reference", reference, 1 + i));
+    ros::WallDuration(1.0).sleep();
+    rejoined = everyone([i](const PeerStatus& p) { return p.accepted && p.version <= 1 + i; });
+  }
+  EXPECT_TRUE(joined) << "a peer joining late was not merged by every robot";
+  EXPECT_TRUE(rejoined) << "a restarted peer was not merged again by every robot";
+
   for (const auto& n : names)
     for (const auto& m : names)
       if (n != m)
@@ -175,6 +204,22 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   std::lock_guard<std::mutex> lock(mutex);
   std::map<std::string, Pose2D> world;
   for (const auto& n : names) world[n] = frameInWorld(n);
+  for (const auto& n : names) {
+    if (!joined) break;
+    // The late peer's map frame is the world frame: its truth in robotN/map is T_N^-1. Error
+    // measured where robot N mapped (the centroid c of its trajectory): |E * T_N * c - c|.
+    double cx = 0, cy = 0;
+    for (const auto& [stamp, pose] : robots[n].estimate) cx += pose.x, cy += pose.y;
+    cx /= std::max<size_t>(1, robots[n].estimate.size()), cy /= std::max<size_t>(1, robots[n].estimate.size());
+    double wx, wy, bx, by;
+    world[n].apply(cx, cy, wx, wy);
+    late[n].pose.apply(wx, wy, bx, by);
+    const double dyaw = std::abs(Pose2D::normalizeAngle(late[n].pose.yaw + world[n].yaw)) * 180 / M_PI;
+    const double dcells = std::hypot(bx - cx, by - cy) / 0.05;
+    std::printf("%s <- late reference map: V %.3f, error %.2f cells, %.2f deg\n", n.c_str(), late[n].acceptance, dcells, dyaw);
+    EXPECT_LE(dyaw, max_error_deg) << n << " <- late reference map";
+    EXPECT_LE(dcells, max_error_cells) << n << " <- late reference map";
+  }
   for (const auto& n : names) {
     Robot& r = robots[n];
     ASSERT_TRUE(r.merged) << n << ": no merged map";
