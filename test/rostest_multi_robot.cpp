@@ -19,6 +19,7 @@
 #include <mrslam/LocalMapShare.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 #include <tf2/utils.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -194,6 +195,12 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   }
   EXPECT_TRUE(joined) << "a peer joining late was not merged by every robot";
   EXPECT_TRUE(rejoined) << "a restarted peer was not merged again by every robot";
+
+  // OctoMap export of robot1's merged map through the service.
+  std_srvs::Trigger export_call;
+  ASSERT_TRUE(ros::service::call("/robot1/map_merge/export_octomap", export_call)) << "no export service";
+  EXPECT_TRUE(export_call.response.success) << export_call.response.message;
+  EXPECT_NE(export_call.response.message.find("leaf voxels"), std::string::npos) << export_call.response.message;
 
   for (const auto& n : names)
     for (const auto& m : names)

@@ -20,6 +20,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -104,10 +105,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
       NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
       return;
     }
-    auto grid = std::make_shared<const OccupancyGrid>(gridFromMsg(*share->map));
+    // Only the newest map of each peer is kept; the worker converts it when it gets to it, so
+    // the callback never copies a grid and maps superseded in the meantime are never copied.
     std::lock_guard<std::mutex> lock(mutex_);
-    if (registry_->updatePeer(share->robot_id, std::move(grid), share->version, ros::Time::now().toSec()))
-      NODELET_INFO("discovered peer %s", share->robot_id.c_str());
+    pending_[share->robot_id] = share;
     wake_.notify_one();
   }
 
@@ -125,7 +126,14 @@ class MapMergeNodelet : public nodelet::Nodelet {
           own_grid_ = std::make_shared<const OccupancyGrid>(gridFromMsg(*own_msg_));
           own_known_ = fusion::knownCells(*own_grid_);
           own_dirty_ = false;
+          own_changed_since_merge_ = true;
         }
+        for (auto& [id, share] : pending_) {
+          if (registry_->updatePeer(id, std::make_shared<const OccupancyGrid>(gridFromMsg(*share->map)), share->version,
+                                    ros::Time::now().toSec()))
+            NODELET_INFO("discovered peer %s", id.c_str());
+        }
+        pending_.clear();
         if (!own_grid_) continue;
         own = own_grid_;
         own_known = own_known_;
@@ -150,8 +158,11 @@ class MapMergeNodelet : public nodelet::Nodelet {
         }
         publishStatus();
       }
+      // The merged map is rebuilt when a transform changed, or when our map changed and the
+      // last rebuild is older than merged_map_period; never for nothing.
       const ros::WallTime now = ros::WallTime::now();
-      if (merged_due_ || (now - last_merged_).toSec() >= merged_map_period_) publishMerged(own);
+      if (merged_due_ || (own_changed_since_merge_ && (now - last_merged_).toSec() >= merged_map_period_))
+        publishMerged(own);
     }
   }
 
@@ -164,7 +175,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   }
 
   void publishMerged(const std::shared_ptr<const OccupancyGrid>& own) {
-    std::vector<std::shared_ptr<const OccupancyGrid>> keep;
+    std::vector<std::shared_ptr<const OccupancyGrid>> keep;  // alive while merging unlocked
     std::vector<fusion::PlacedGrid> placed;
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -174,16 +185,19 @@ class MapMergeNodelet : public nodelet::Nodelet {
           placed.push_back({peer.map.get(), peer.accepted->pose});
         }
       merged_due_ = false;
+      own_changed_since_merge_ = false;
     }
     last_merged_ = ros::WallTime::now();
+    OccupancyGrid merged = placed.empty() ? *own : fusion::mergeGrids(*own, placed);
     auto msg = boost::make_shared<nav_msgs::OccupancyGrid>();
-    const OccupancyGrid merged = placed.empty() ? *own : fusion::mergeGrids(*own, placed);
-    gridToMsg(merged, map_frame_, ros::Time::now(), *msg);
+    std::swap(merged.data, msg->data);  // the cells move into the message, no copy
+    gridToMsg(merged, map_frame_, ros::Time::now(), *msg, /*with_data=*/false);
+    nav_msgs::OccupancyGrid::ConstPtr published(msg);
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      merged_ = std::make_shared<const OccupancyGrid>(merged);
+      merged_ = published;  // for the OctoMap export; never modified
     }
-    merged_pub_.publish(nav_msgs::OccupancyGrid::ConstPtr(msg));
+    merged_pub_.publish(published);
   }
 
   void publishStatus() {  // mutex_ held
@@ -220,7 +234,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   }
 
   bool onExport(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
-    std::shared_ptr<const OccupancyGrid> merged;
+    nav_msgs::OccupancyGrid::ConstPtr merged;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       merged = merged_;
@@ -231,7 +245,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       return true;
     }
     try {
-      const size_t voxels = saveOctomap(*merged, octomap_path_);
+      const size_t voxels = saveOctomap(gridFromMsg(*merged), octomap_path_);
       response.success = true;
       response.message = octomap_path_ + ": " + std::to_string(voxels) + " leaf voxels";
     } catch (const std::exception& e) {
@@ -265,10 +279,12 @@ class MapMergeNodelet : public nodelet::Nodelet {
   fusion::FusionParams fusion_params_;
   std::unique_ptr<fusion::PeerRegistry> registry_;
   nav_msgs::OccupancyGrid::ConstPtr own_msg_;
-  std::shared_ptr<const OccupancyGrid> own_grid_, merged_;
+  std::shared_ptr<const OccupancyGrid> own_grid_;
+  nav_msgs::OccupancyGrid::ConstPtr merged_;
+  std::map<std::string, SharedMap::ConstPtr> pending_;  // newest unconverted map of each peer
   size_t own_known_ = 0, rejected_maps_ = 0;
   uintptr_t own_address_ = 0;
-  bool own_dirty_ = false, merged_due_ = false;
+  bool own_dirty_ = false, merged_due_ = false, own_changed_since_merge_ = false;
   ros::WallTime last_merged_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   ros::Publisher merged_pub_, status_pub_;

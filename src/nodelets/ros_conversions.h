@@ -112,8 +112,10 @@ inline OccupancyGrid gridFromMsg(const nav_msgs::OccupancyGrid& msg) {
   return grid;
 }
 
+// Header and info of `msg` from `grid`, and its cells unless with_data is false (the caller
+// moved them in already).
 inline void gridToMsg(const OccupancyGrid& grid, const std::string& frame, const ros::Time& stamp,
-                      nav_msgs::OccupancyGrid& msg) {
+                      nav_msgs::OccupancyGrid& msg, bool with_data = true) {
   msg.header.stamp = stamp;
   msg.header.frame_id = frame;
   msg.info.map_load_time = stamp;
@@ -121,7 +123,7 @@ inline void gridToMsg(const OccupancyGrid& grid, const std::string& frame, const
   msg.info.width = static_cast<uint32_t>(grid.width);
   msg.info.height = static_cast<uint32_t>(grid.height);
   msg.info.origin = poseToMsg(grid.origin);
-  msg.data = grid.data;
+  if (with_data) msg.data = grid.data;
 }
 
 // Row-major 6x6 (x, y, z, roll, pitch, yaw) from the 3x3 (x, y, yaw) covariance.
