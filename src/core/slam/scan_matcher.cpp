@@ -63,7 +63,8 @@ ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess) co
     return result;
   }
   mrpt::slam::CICP::TReturnInfo info;
-  // The ICP object is shared by the const match() calls of one matcher (one thread each).
+  // The pairing decimation depends on this scan. (match() is const to callers but tunes the
+  // ICP object it owns: one matcher serves one robot, from one thread.)
   impl_->icp.options.corresponding_points_decimation =
       params_.correspondence_points > 0
           ? static_cast<uint32_t>(std::max<size_t>(1, (current.size() + params_.correspondence_points - 1) / params_.correspondence_points))
