@@ -222,6 +222,22 @@ TEST(RobotSlam, IntelExcerptTracksTheReferenceAndIgnoresBadScans) {
   EXPECT_LT(local.rot_mean, odometry.rot_mean / 2);
 }
 
+TEST(RobotSlam, OdometryJumpsDependOnTheTimeBetweenScans) {
+  const RobotLog& log = intelLog();
+  RobotSlam robot(RobotSlamParams{}, log.laser_in_base);
+  LaserScan scan = log.records[0].scan;
+  scan.stamp = 10.0;
+  ASSERT_TRUE(robot.processScan(scan).used);
+  // 3 m in 6 s (two scans skipped by a busy machine): motion.
+  robot.addOdometry({3.0, 0.0, 0.0});
+  scan.stamp = 16.0;
+  EXPECT_FALSE(robot.processScan(scan).odometry_jump);
+  // 3 m in 0.1 s: a jump.
+  robot.addOdometry({3.0, 0.0, 0.0});
+  scan.stamp = 16.1;
+  EXPECT_TRUE(robot.processScan(scan).odometry_jump);
+}
+
 TEST(SimulatedGyro, IntegratedYawIsTheTruthPlusBoundedNoise) {
   SimulatedGyro gyro(GyroNoiseModel{}, 3);
   double worst = 0;

@@ -19,9 +19,12 @@ struct RobotSlamParams {
   bool use_imu = true;            // gyro updates are used when they arrive
   double map_update_distance = 0.0;  // m moved before a scan is inserted into the grid (0: every scan)
   double map_update_angle = 0.0;     // rad turned before a scan is inserted into the grid
-  // A single odometry increment larger than this is a jump (wheel slip, driver restart):
-  // it is not trusted and the scan matcher gets the previous pose as its guess.
-  double max_odometry_jump = 2.0;   // m
+  // An odometry increment longer than max_odometry_jump + max_odometry_speed * (time since the
+  // previous scan) is a jump (wheel slip, driver restart), not motion: it is not trusted and the
+  // scan matcher starts from the previous pose. The time term keeps a legitimate increment
+  // across skipped scans from looking like a jump.
+  double max_odometry_jump = 0.5;   // m
+  double max_odometry_speed = 2.0;  // m/s
 };
 
 struct ScanStep {
@@ -63,6 +66,7 @@ class RobotSlam {
   bool have_gyro_ = false;
   size_t scans_ = 0;
   bool have_map_pose_ = false;
+  double last_stamp_ = 0;
   Pose2D last_map_pose_;
 };
 

@@ -46,7 +46,9 @@ ScanStep RobotSlam::processScan(const LaserScan& scan) {
   step.used = true;
   Pose2D u = odometry_;
   odometry_ = Pose2D{};
-  if (std::hypot(u.x, u.y) > params_.max_odometry_jump) {
+  const double dt = scans_ > 0 ? std::max(0.0, scan.stamp - last_stamp_) : 0.0;
+  last_stamp_ = scan.stamp;
+  if (std::hypot(u.x, u.y) > params_.max_odometry_jump + params_.max_odometry_speed * dt) {
     step.odometry_jump = true;
     u = Pose2D{};
   }
