@@ -1,15 +1,21 @@
 // mrslam/GridMappingNodelet: the robot's occupancy grid (slam::GridMapper, MRPT log-odds),
-// built from the scans at the filtered poses the localization publishes through tf.
+// built from the scans at the filtered poses the localization publishes.
 //
-// Subscribes (robot namespace): scan, through a tf2 message filter that holds each scan until
-// map_frame -> laser is known at its stamp. Publishes: map (nav_msgs/OccupancyGrid, latched,
-// at most map_publish_rate Hz and only when it changed) and map_metadata.
+// Subscribes (robot namespace): scan and pose (the localization's filtered pose, stamped with
+// the scan it was computed from), paired by exact stamp; the laser's mounting on base_frame
+// comes from tf. Pairing by stamp rather than looking map -> laser up in tf inserts each scan
+// at exactly its filtered pose: tf would interpolate map -> odom between the corrections of two
+// scans, and its cache pruning once made a scan fail outright.
+// Publishes: map (nav_msgs/OccupancyGrid, latched, at most map_publish_rate Hz and only when it
+// changed) and map_metadata.
 //
 // Zero copy: every publication is a freshly allocated grid filled in place from the MRPT map
 // and published as a shared pointer that is never touched again, so nodelets in the same
 // manager (the map-share and map-merge nodelets) receive that very object.
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <message_filters/subscriber.h>
+#include <message_filters/time_synchronizer.h>
 #include <nav_msgs/MapMetaData.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nodelet/nodelet.h>
@@ -17,7 +23,6 @@
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <deque>
@@ -36,6 +41,7 @@ class GridMappingNodelet : public nodelet::Nodelet {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
     pnh.param<std::string>("map_frame", map_frame_, "map");
+    pnh.param<std::string>("base_frame", base_frame_, "base_link");
     double rate = 1.0, max_time_jump = 1.0;
     pnh.param("map_publish_rate", rate, rate);
     pnh.param("max_time_jump", max_time_jump_, max_time_jump);
@@ -46,21 +52,15 @@ class GridMappingNodelet : public nodelet::Nodelet {
     }
     mapper_ = std::make_unique<slam::GridMapper>(params_.grid, Pose2D{});
 
-    tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(30.0));
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
     map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
     metadata_pub_ = nh.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
     scan_sub_.subscribe(nh, "scan", 20);
-    scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(
-        scan_sub_, *tf_buffer_, map_frame_, 50, nh);
-    scan_filter_->registerCallback(&GridMappingNodelet::onScan, this);
-    scan_filter_->registerFailureCallback(
-        [this](const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::filter_failure_reasons::FilterFailureReason) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          ++dropped_;
-          NODELET_WARN_THROTTLE(10.0, "scan dropped: no transform %s -> %s at its stamp",
-                                map_frame_.c_str(), msg->header.frame_id.c_str());
-        });
+    pose_sub_.subscribe(nh, "pose", 20);
+    sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, geometry_msgs::PoseWithCovarianceStamped>>(
+        scan_sub_, pose_sub_, 50);
+    sync_->registerCallback(&GridMappingNodelet::onScan, this);
     publish_timer_ = nh.createTimer(ros::Duration(1.0 / std::max(0.01, rate)), &GridMappingNodelet::onTimer, this);
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
@@ -69,7 +69,7 @@ class GridMappingNodelet : public nodelet::Nodelet {
     diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
   }
 
-  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg, const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& pose) {
     std::lock_guard<std::mutex> lock(mutex_);
     const double t = msg->header.stamp.toSec();
     if (last_scan_time_ > 0 && t < last_scan_time_ - max_time_jump_) {
@@ -79,12 +79,14 @@ class GridMappingNodelet : public nodelet::Nodelet {
     }
     last_scan_time_ = t;
     std::string error;
-    const auto laser_in_map = lookupPose2D(*tf_buffer_, map_frame_, msg->header.frame_id, msg->header.stamp, &error);
-    if (!laser_in_map) {
+    const auto laser_in_base = lookupPose2D(*tf_buffer_, base_frame_, msg->header.frame_id, msg->header.stamp, &error);
+    const Pose2D base_in_map = poseFromMsg(pose->pose.pose);
+    if (!laser_in_base || !finite(base_in_map)) {
       ++dropped_;
-      NODELET_WARN_THROTTLE(10.0, "scan dropped: %s", error.c_str());
+      NODELET_WARN_THROTTLE(10.0, "scan dropped: %s", laser_in_base ? "pose is not finite" : error.c_str());
       return;
     }
+    const Pose2D laser_in_map = base_in_map.compose(*laser_in_base);
     const slam::LaserScan scan = scanFromMsg(*msg);
     std::string problem = scanMsgProblem(*msg);
     if (problem.empty()) problem = slam::scanProblem(scan);
@@ -94,7 +96,7 @@ class GridMappingNodelet : public nodelet::Nodelet {
       return;
     }
     // The mapper's laser offset is zero: tf already gives the laser's own pose.
-    mapper_->insert(scan, *laser_in_map);
+    mapper_->insert(scan, laser_in_map);
     ++inserted_;
   }
 
@@ -143,7 +145,7 @@ class GridMappingNodelet : public nodelet::Nodelet {
   }
 
   std::mutex mutex_;
-  std::string map_frame_;
+  std::string map_frame_, base_frame_;
   double max_time_jump_ = 1.0, last_scan_time_ = 0;
   slam::RobotSlamParams params_;
   std::unique_ptr<slam::GridMapper> mapper_;
@@ -153,7 +155,8 @@ class GridMappingNodelet : public nodelet::Nodelet {
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   message_filters::Subscriber<sensor_msgs::LaserScan> scan_sub_;
-  std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
+  message_filters::Subscriber<geometry_msgs::PoseWithCovarianceStamped> pose_sub_;
+  std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, geometry_msgs::PoseWithCovarianceStamped>> sync_;
   ros::Publisher map_pub_, metadata_pub_;
   ros::Timer publish_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
