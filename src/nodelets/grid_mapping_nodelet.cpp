@@ -79,7 +79,8 @@ class GridMappingNodelet : public nodelet::Nodelet {
     }
     last_scan_time_ = t;
     std::string error;
-    const auto laser_in_base = lookupPose2D(*tf_buffer_, base_frame_, msg->header.frame_id, msg->header.stamp, &error);
+    // The laser is bolted on: its newest mounting transform will do (no waiting for tf at the stamp).
+    const auto laser_in_base = lookupPose2D(*tf_buffer_, base_frame_, msg->header.frame_id, ros::Time(0), &error);
     const Pose2D base_in_map = poseFromMsg(pose->pose.pose);
     if (!laser_in_base || !finite(base_in_map)) {
       ++dropped_;

@@ -137,7 +137,8 @@ class LocalizationNodelet : public nodelet::Nodelet {
     }
     if (!robot_) {
       std::string error;
-      const auto laser = lookupPose2D(*tf_buffer_, base_frame_, msg->header.frame_id, msg->header.stamp, &error);
+      // The laser is bolted on: its newest mounting transform will do.
+      const auto laser = lookupPose2D(*tf_buffer_, base_frame_, msg->header.frame_id, ros::Time(0), &error);
       if (!laser) {
         NODELET_WARN_THROTTLE(5.0, "waiting for tf %s -> %s: %s", base_frame_.c_str(), msg->header.frame_id.c_str(), error.c_str());
         last_problem_ = "no laser transform: " + error;
