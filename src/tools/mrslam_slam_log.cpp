@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
     if (t_log < window_start || (window_end > 0 && t_log > window_end)) continue;
     if (first_in_window == log.records.size()) {
       first_in_window = k;
-      if (r.has_reference)  // where this run's map frame sits in the log's reference frame
+      if (r.has_reference && (window_start > 0 || window_end > 0))  // where this window's map frame sits in the log's frame
         std::cerr << "window starts at scan " << k << ", reference pose " << r.reference.x << " " << r.reference.y << " "
                   << r.reference.yaw << "\n";
     } else {
