@@ -1,12 +1,9 @@
 #include "mrslam/bench/pair_maker.h"
 #include "mrslam/slam/robot_log.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
-#include <stdexcept>
 
 namespace mrslam::bench {
 std::vector<LaserScan2D> readCarmenScans(const std::string& path, int* skipped_lines) {
