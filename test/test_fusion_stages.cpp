@@ -310,6 +310,27 @@ TEST(ChamferPolish, RecoversASubCellMisalignment) {
   EXPECT_LT(polish.meanDistance(done), polish.meanDistance(start));
 }
 
+TEST(ChamferPolish, TruncatedDistanceIsExactBelowItsReach) {
+  // Against OpenCV's exact Euclidean transform on a real crop: equal below the reach, capped
+  // beyond it (the polish only reads distances below the reach).
+  const cv::Mat t = intelCrop();
+  cv::Mat exact;
+  cv::distanceTransform(t != kOccupiedCell, exact, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  const cv::Mat ours = truncatedWallDistance(t, 4.0);
+  int near = 0;
+  for (int r = 0; r < t.rows; ++r)
+    for (int c = 0; c < t.cols; ++c) {
+      const float e = exact.at<float>(r, c), o = ours.at<float>(r, c);
+      if (e < 4.0f) {
+        ++near;
+        ASSERT_NEAR(o, e, 1e-3) << r << "," << c;
+      } else {
+        ASSERT_EQ(o, 4.0f) << r << "," << c;
+      }
+    }
+  EXPECT_GT(near, 5000);  // the crop has walls to measure from
+}
+
 TEST(GridMerge, PlacesPiecesBackWhereTheyCameFrom) {
   const OccupancyGrid left = bench::cropGrid(intel(), 0, 0, 450, 761);
   const OccupancyGrid right_original = bench::cropGrid(intel(), 400, 0, 414, 761);

@@ -15,6 +15,10 @@
 
 namespace mrslam::fusion {
 
+// Distance (cells) from each cell to the nearest obstacle cell of a ternary image, exact below
+// `reach` and `ceil(reach)` everywhere farther.
+cv::Mat truncatedWallDistance(const cv::Mat& ternary, double reach);
+
 class ChamferPolish {
  public:
   // `truncation` (cells): B's wall cells farther than this from A's walls are ignored.
