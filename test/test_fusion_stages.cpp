@@ -69,6 +69,21 @@ TEST(DownsampleTernary, OccupiedWinsThenFree) {
   EXPECT_EQ(d.at<uint8_t>(0, 1), kUnknownCell);
 }
 
+TEST(DownsampleTernary, EveryBlockOfARealOddSizedCropIsItsMaximum) {
+  // 301 x 299 cells: the last row and column form half blocks.
+  const cv::Mat t = toTernary(bench::cropGrid(intel(), 250, 230, 299, 301));
+  const cv::Mat d = downsampleTernary(t);
+  ASSERT_EQ(d.rows, 151);
+  ASSERT_EQ(d.cols, 150);
+  for (int r = 0; r < d.rows; ++r)
+    for (int c = 0; c < d.cols; ++c) {
+      uint8_t best = kUnknownCell;
+      for (int rr = 2 * r; rr < std::min(t.rows, 2 * r + 2); ++rr)
+        for (int cc = 2 * c; cc < std::min(t.cols, 2 * c + 2); ++cc) best = std::max(best, t.at<uint8_t>(rr, cc));
+      ASSERT_EQ(d.at<uint8_t>(r, c), best) << r << "," << c;
+    }
+}
+
 TEST(EdgeSmoothing, ThickWallBecomesItsOneCellMiddleCurve) {
   // A real wall band: the obstacles of the crop dilated to ~5 cells, as a noisy laser makes.
   const cv::Mat t = intelCrop();

@@ -54,7 +54,7 @@ struct FusionParams {
   int refine_radius = 1;          // similarity search per finer level (cells of that level)
   bool chamfer_polish = true;     // sub-cell polish on A's wall distance transform
   double chamfer_truncation = 2.0;  // cells; walls farther apart do not pull
-  int max_free_points = 30000;    // free cells of B used per similarity evaluation
+  int max_free_points = 15000;    // free cells of B used per similarity evaluation
   double disagreement_weight = 10.0;  // ranking score agr - w * dis (w = 1: the paper's J)
 
   double max_resolution_ratio = 4.0;  // maps whose resolutions differ more are refused

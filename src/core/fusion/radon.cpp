@@ -15,14 +15,32 @@ std::vector<double> radonLineEnergy(const std::vector<cv::Point2f>& points, doub
   for (const auto& p : points) max_r = std::max(max_r, std::hypot(p.x, p.y));
   // rho + offset is never negative, so truncating rho + offset + 0.5 rounds to the nearest bin.
   const float offset = std::ceil(max_r) + 1.5f;
-  std::vector<int> bins(2 * static_cast<size_t>(offset) + 3);
+  // Neighbouring points (a wall, in raster order) fall in the same bin: four interleaved
+  // histograms break the chain of increments of one counter (about 2x faster, measured).
+  const size_t n_bins = 2 * static_cast<size_t>(offset) + 3;
+  std::vector<int> bins(4 * n_bins);
+  int* const h0 = bins.data();
+  int* const h1 = h0 + n_bins;
+  int* const h2 = h1 + n_bins;
+  int* const h3 = h2 + n_bins;
+  const size_t n = points.size(), n4 = n - n % 4;
   for (int k = 0; k < count; ++k) {
     const double theta = start + k * step;
     const float c = static_cast<float>(std::cos(theta)), s = static_cast<float>(std::sin(theta));
     std::fill(bins.begin(), bins.end(), 0);
-    for (const auto& p : points) ++bins[static_cast<int>(p.x * c + p.y * s + offset)];
+    auto bin = [&](size_t i) { return static_cast<int>(points[i].x * c + points[i].y * s + offset); };
+    for (size_t i = 0; i < n4; i += 4) {
+      ++h0[bin(i)];
+      ++h1[bin(i + 1)];
+      ++h2[bin(i + 2)];
+      ++h3[bin(i + 3)];
+    }
+    for (size_t i = n4; i < n; ++i) ++h0[bin(i)];
     double sum = 0;
-    for (int b : bins) sum += static_cast<double>(b) * b;
+    for (size_t b = 0; b < n_bins; ++b) {
+      const double v = h0[b] + h1[b] + h2[b] + h3[b];
+      sum += v * v;
+    }
     energy[k] = sum / points.size();
   }
   return energy;

@@ -18,23 +18,20 @@ SimilarityIndex::SimilarityIndex(const cv::Mat& ternary_a, const cv::Mat& ternar
 
   cv::Mat occupied_b = ternary_b == kOccupiedCell, near_b;
   cv::dilate(occupied_b, near_b, kernel);
-  size_t free_total = 0;
-  for (int r = 0; r < ternary_b.rows; ++r) {
-    const uint8_t* t = ternary_b.ptr<uint8_t>(r);
-    const uint8_t* n = near_b.ptr<uint8_t>(r);
-    for (int c = 0; c < ternary_b.cols; ++c) {
-      if (t[c] == kOccupiedCell) occupied_b_.emplace_back(c + 0.5f, r + 0.5f);
-      else if (t[c] == kFreeCell && !n[c]) ++free_total;
-    }
-  }
+  std::vector<cv::Point> cells;
+  cv::findNonZero(occupied_b, cells);
+  occupied_b_.reserve(cells.size());
+  for (const cv::Point& p : cells) occupied_b_.emplace_back(p.x + 0.5f, p.y + 0.5f);
+  const cv::Mat free_b = (ternary_b == kFreeCell) & ~near_b;
+  const size_t free_total = static_cast<size_t>(cv::countNonZero(free_b));
   const size_t stride =
       max_free_points > 0 ? std::max<size_t>(1, (free_total + max_free_points - 1) / max_free_points) : 1;
-  size_t k = 0;
-  for (int r = 0; r < ternary_b.rows; ++r) {
-    const uint8_t* t = ternary_b.ptr<uint8_t>(r);
-    const uint8_t* n = near_b.ptr<uint8_t>(r);
-    for (int c = 0; c < ternary_b.cols; ++c)
-      if (t[c] == kFreeCell && !n[c] && (k++ % stride) == 0) free_b_.emplace_back(c + 0.5f, r + 0.5f);
+  free_b_.reserve(free_total / stride + 1);
+  size_t countdown = 1;  // keeps the 1st, (stride+1)th, ... free cell in raster order
+  for (int r = 0; r < free_b.rows; ++r) {
+    const uint8_t* f = free_b.ptr<uint8_t>(r);
+    for (int c = 0; c < free_b.cols; ++c)
+      if (f[c] && --countdown == 0) free_b_.emplace_back(c + 0.5f, r + 0.5f), countdown = stride;
   }
   for (const auto& p : occupied_b_) center_b_ += cv::Point2d(p);
   if (!occupied_b_.empty()) center_b_ /= static_cast<double>(occupied_b_.size());
@@ -53,6 +50,15 @@ void SimilarityIndex::accumulate(const std::vector<cv::Point2f>& points,
     const int x0 = static_cast<int>(std::floor(c * p.x - s * p.y + transform.t.x)) - radius;
     const int y0 = static_cast<int>(std::floor(s * p.x + c * p.y + transform.t.y)) - radius;
     if (x0 + side <= 0 || y0 + side <= 0 || x0 >= cols || y0 >= rows) continue;
+    if (x0 >= 0 && y0 >= 0 && x0 + side <= cols && y0 + side <= rows) {
+      // The whole window inside A (most points): no per-cell bounds checks.
+      int64_t* h = hits.data();
+      for (int dy = 0; dy < side; ++dy) {
+        const uint8_t* row = lookup_a_.ptr<uint8_t>(y0 + dy) + x0;
+        for (int dx = 0; dx < side; ++dx, h += 4) ++h[row[dx]];
+      }
+      continue;
+    }
     for (int dy = 0; dy < side; ++dy) {
       const int y = y0 + dy;
       if (y < 0 || y >= rows) continue;

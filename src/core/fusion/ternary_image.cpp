@@ -5,17 +5,17 @@
 namespace mrslam::fusion {
 
 cv::Mat toTernary(const OccupancyGrid& grid, int occupied_threshold, int free_threshold) {
-  cv::Mat out(grid.height, grid.width, CV_8U);
-  for (int r = 0; r < grid.height; ++r) {
-    const int8_t* src = grid.data.data() + static_cast<size_t>(r) * grid.width;
-    uint8_t* dst = out.ptr<uint8_t>(r);
-    for (int c = 0; c < grid.width; ++c) {
-      const int v = src[c];
-      dst[c] = v < 0 ? kUnknownCell
-                     : (v >= occupied_threshold ? kOccupiedCell
-                                                : (v <= free_threshold ? kFreeCell : kUnknownCell));
-    }
+  // One table lookup per cell (cv::LUT is vectorised) on the int8 values read as bytes.
+  cv::Mat table(1, 256, CV_8U);
+  for (int i = 0; i < 256; ++i) {
+    const int v = static_cast<int8_t>(static_cast<uint8_t>(i));
+    table.at<uint8_t>(i) = v < 0 ? kUnknownCell
+                                 : (v >= occupied_threshold ? kOccupiedCell
+                                                            : (v <= free_threshold ? kFreeCell : kUnknownCell));
   }
+  const cv::Mat values(grid.height, grid.width, CV_8U, const_cast<int8_t*>(grid.data.data()));
+  cv::Mat out;
+  cv::LUT(values, table, out);
   return out;
 }
 
@@ -39,22 +39,20 @@ cv::Mat cannyEdges(const cv::Mat& ternary, const CannyParams& params) {
 }
 
 cv::Mat downsampleTernary(const cv::Mat& ternary) {
-  cv::Mat out((ternary.rows + 1) / 2, (ternary.cols + 1) / 2, CV_8U);
-  for (int r = 0; r < out.rows; ++r) {
-    for (int c = 0; c < out.cols; ++c) {
-      uint8_t best = kUnknownCell;
-      for (int dr = 0; dr < 2; ++dr) {
-        const int rr = 2 * r + dr;
-        if (rr >= ternary.rows) break;
-        const uint8_t* src = ternary.ptr<uint8_t>(rr);
-        for (int dc = 0; dc < 2; ++dc) {
-          const int cc = 2 * c + dc;
-          if (cc < ternary.cols && src[cc] > best) best = src[cc];  // occupied > free > unknown
-        }
-      }
-      out.at<uint8_t>(r, c) = best;
-    }
-  }
+  // The maximum of each 2 x 2 block (occupied > free > unknown), with whole-row vector
+  // operations: pad to even sides with unknown, take the max of each row pair (a row pair is
+  // one row of the image viewed with half the rows), then of each column pair (two channels).
+  cv::Mat even;
+  cv::copyMakeBorder(ternary, even, 0, ternary.rows % 2, 0, ternary.cols % 2, cv::BORDER_CONSTANT,
+                     cv::Scalar(kUnknownCell));
+  const int half_rows = even.rows / 2, cols = even.cols;
+  const cv::Mat row_pairs = even.reshape(1, half_rows);  // [row 2r | row 2r+1]
+  cv::Mat rows_max;
+  cv::max(row_pairs.colRange(0, cols), row_pairs.colRange(cols, 2 * cols), rows_max);
+  cv::Mat columns[2];
+  cv::split(rows_max.reshape(2, half_rows), columns);  // rows_max is continuous
+  cv::Mat out;
+  cv::max(columns[0], columns[1], out);
   return out;
 }
 
