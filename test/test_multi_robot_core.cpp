@@ -44,6 +44,21 @@ TEST(PeerRegistry, DiscoversPeersAndReEstimatesOnlyWhenMapsGrow) {
   EXPECT_FALSE(registry.nextToEstimate(1000, 100.0)) << "maps this small are not estimated";
 }
 
+TEST(PeerRegistry, RefreshRunsOnTheSchedulingClockAndReportsCurrentEstimates) {
+  // A bag's clock stops at its end: estimates stamped with it must still be refreshed on the
+  // (wall) scheduling clock, or the final maps would never be merged.
+  PeerRegistry registry("robot2");
+  const size_t own = knownCells(*realMap());
+  registry.updatePeer("robot1", realMap(), 1, 50.0);
+  EXPECT_FALSE(registry.estimateIsCurrent(registry.peers().at("robot1"), own)) << "never estimated";
+  registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, /*stamp*/ 50.0, /*clock*/ 1000.0);
+  EXPECT_TRUE(registry.estimateIsCurrent(registry.peers().at("robot1"), own));
+  EXPECT_FALSE(registry.estimateIsCurrent(registry.peers().at("robot1"), own + 10)) << "our map changed";
+  EXPECT_FALSE(registry.nextToEstimate(own + 10, 1005.0)) << "within the refresh period of the clock";
+  EXPECT_TRUE(registry.nextToEstimate(own + 10, 1010.0)) << "refresh period passed on the clock";
+  EXPECT_EQ(registry.peers().at("robot1").last_attempt.stamp, 50.0) << "the estimate keeps its stamp";
+}
+
 TEST(PeerRegistry, HysteresisRefinesKeepsAndRevokes) {
   PeerRegistry registry("robot2");
   const size_t own = knownCells(*realMap());

@@ -137,7 +137,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
         if (!own_grid_) continue;
         own = own_grid_;
         own_known = own_known_;
-        if (auto next = registry_->nextToEstimate(own_known, ros::Time::now().toSec())) {
+        if (auto next = registry_->nextToEstimate(own_known, ros::WallTime::now().toSec())) {
           peer_id = *next;
           peer_map = registry_->peers().at(peer_id).map;
         }
@@ -146,7 +146,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
         const fusion::FusionResult result = fusion::alignMaps(*own, *peer_map, fusion_params_);
         std::lock_guard<std::mutex> lock(mutex_);
         const bool had = registry_->peers().at(peer_id).accepted.has_value();
-        if (registry_->applyEstimate(peer_id, result, own_known, ros::Time::now().toSec())) {
+        if (registry_->applyEstimate(peer_id, result, own_known, ros::Time::now().toSec(), ros::WallTime::now().toSec())) {
           if (!registry_->peers().at(peer_id).accepted)
             NODELET_WARN("transform to %s revoked: rejected %d times in a row on grown maps (%s)", peer_id.c_str(),
                          registry_->peers().at(peer_id).rejections_in_a_row, result.verdict.reason.c_str());
@@ -157,6 +157,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
           merged_due_ = true;
         }
         publishStatus();
+      } else if ((ros::WallTime::now() - last_status_).toSec() >= 1.0) {
+        // Also once a second without news: whether each estimate still describes the current maps.
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!registry_->peers().empty()) publishStatus();
       }
       // The merged map is rebuilt when a transform changed, or when our map changed and the
       // last rebuild is older than merged_map_period; never for nothing.
@@ -219,10 +223,12 @@ class MapMergeNodelet : public nodelet::Nodelet {
       s.add("first_map_time", peer.first_seen);
       s.add("accepted_since", peer.accepted_since);
       s.add("attempts", peer.attempts);
+      s.add("estimate_current", registry_->estimateIsCurrent(peer, own_known_));
       s.add("version", peer.version);
       array->status.push_back(s);
     }
     status_pub_.publish(diagnostic_msgs::DiagnosticArray::ConstPtr(array));
+    last_status_ = ros::WallTime::now();
   }
 
   struct PeerEstimateView {
@@ -285,7 +291,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   size_t own_known_ = 0, rejected_maps_ = 0;
   uintptr_t own_address_ = 0;
   bool own_dirty_ = false, merged_due_ = false, own_changed_since_merge_ = false;
-  ros::WallTime last_merged_;
+  ros::WallTime last_merged_, last_status_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   ros::Publisher merged_pub_, status_pub_;
   ros::Subscriber own_sub_, share_sub_;

@@ -54,6 +54,7 @@ struct Peer {
   int rejections_in_a_row = 0;
   std::optional<PeerEstimate> accepted;  // the transform in use
   PeerEstimate last_attempt;
+  double last_attempt_clock = 0;         // the same on the scheduling clock (see nextToEstimate)
   double accepted_since = 0;             // when the first transform was accepted
 };
 
@@ -68,11 +69,18 @@ class PeerRegistry {
   bool updatePeer(const std::string& id, std::shared_ptr<const OccupancyGrid> map, uint32_t version, double now);
   // The peer whose transform should be (re-)estimated next, given our map's known cells: never
   // estimated first, then the one whose maps grew the most, then one whose maps changed at all
-  // and whose estimate is older than refresh_period. None when nothing needs work.
-  std::optional<std::string> nextToEstimate(size_t own_known_cells, double now) const;
+  // and whose estimate is older than refresh_period on the scheduling `clock`. None when nothing
+  // needs work. The nodelet's clock is the wall clock: refreshing is a CPU budget, and a bag's
+  // clock stops at its end, which would leave the final maps unmerged.
+  std::optional<std::string> nextToEstimate(size_t own_known_cells, double clock) const;
   // Records an estimate with hysteresis. Returns true when the transform in use changed
   // (replaced or revoked).
-  bool applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now);
+  // (replaced or revoked). `now` stamps the estimate (ROS time); `clock` is the scheduling clock
+  // of nextToEstimate (defaults to now).
+  bool applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now,
+                     std::optional<double> clock = std::nullopt);
+  // True when neither map changed since the peer's last estimate: it describes the current maps.
+  bool estimateIsCurrent(const Peer& peer, size_t own_known_cells) const;
   // Our map frame's tf parent under the convention above.
   std::optional<std::string> parentOf() const;
 

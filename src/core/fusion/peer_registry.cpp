@@ -31,9 +31,9 @@ bool PeerRegistry::updatePeer(const std::string& id, std::shared_ptr<const Occup
   return rejoined;
 }
 
-std::optional<std::string> PeerRegistry::nextToEstimate(size_t own_known_cells, double now) const {
+std::optional<std::string> PeerRegistry::nextToEstimate(size_t own_known_cells, double clock) const {
   std::optional<std::string> best, stale;
-  double best_growth = 0, oldest = now;
+  double best_growth = 0, oldest = clock;
   for (const auto& [id, peer] : peers_) {
     if (!peer.map || own_known_cells < params_.min_known_cells || peer.known_cells < params_.min_known_cells) continue;
     if (peer.attempts == 0) return id;
@@ -41,18 +41,24 @@ std::optional<std::string> PeerRegistry::nextToEstimate(size_t own_known_cells, 
     const double own_growth = peer.own_known_at_estimate ? static_cast<double>(own_known_cells) / peer.own_known_at_estimate - 1 : 1;
     const double growth = std::max(peer_growth, own_growth);
     if (growth >= params_.regrow_fraction && growth > best_growth) best = id, best_growth = growth;
-    const bool changed = peer.known_cells != peer.known_at_estimate || own_known_cells != peer.own_known_at_estimate;
-    if (changed && now - peer.last_attempt.stamp >= params_.refresh_period && peer.last_attempt.stamp < oldest)
-      stale = id, oldest = peer.last_attempt.stamp;
+    if (!estimateIsCurrent(peer, own_known_cells) && clock - peer.last_attempt_clock >= params_.refresh_period &&
+        peer.last_attempt_clock < oldest)
+      stale = id, oldest = peer.last_attempt_clock;
   }
   return best ? best : stale;
 }
 
-bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now) {
+bool PeerRegistry::estimateIsCurrent(const Peer& peer, size_t own_known_cells) const {
+  return peer.attempts > 0 && peer.known_cells == peer.known_at_estimate && own_known_cells == peer.own_known_at_estimate;
+}
+
+bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now,
+                                 std::optional<double> clock) {
   auto it = peers_.find(id);
   if (it == peers_.end()) return false;
   Peer& peer = it->second;
   ++peer.attempts;
+  peer.last_attempt_clock = clock.value_or(now);
   peer.known_at_estimate = peer.known_cells;
   peer.own_known_at_estimate = own_known_cells;
   PeerEstimate estimate{result.accepted, result.pose, result.verdict.acceptance, now, result.verdict.reason};
