@@ -41,6 +41,8 @@ struct Verdict {
   double distinctiveness = 0;
   double ambiguity = 0;
   std::string reason;          // why it was rejected; empty when accepted
+  bool no_overlap_found = false;  // rejected for too little shared wall: the pose explains
+                                  // nothing, as opposed to a real overlap failing a check
 };
 
 // Entropy increase (bits) of the fused image over the overlap, from the counts (eq. 21).

@@ -85,7 +85,9 @@ std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params) 
   return "";
 }
 
-FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
+namespace {
+
+FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
   const auto start = std::chrono::steady_clock::now();
   FusionResult result;
   auto lap = start;
@@ -94,14 +96,7 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
     result.stage_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - lap).count());
     lap = now;
   };
-  for (const OccupancyGrid* g : {&a, &b}) {
-    const std::string why = checkFusable(*g, params);
-    if (!why.empty()) throw std::invalid_argument(std::string(g == &a ? "map A: " : "map B: ") + why);
-  }
   const double ratio = b.resolution / a.resolution;
-  if (ratio > params.max_resolution_ratio || ratio < 1.0 / params.max_resolution_ratio)
-    throw std::invalid_argument("resolutions " + std::to_string(a.resolution) + " and " +
-                                std::to_string(b.resolution) + " differ too much to resample");
 
   const cv::Mat ternary_a = toTernary(a, params.occupied_threshold, params.free_threshold);
   cv::Mat ternary_b = toTernary(b, params.occupied_threshold, params.free_threshold);
@@ -257,6 +252,36 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
   result.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+}  // namespace
+
+FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
+  for (const OccupancyGrid* g : {&a, &b}) {
+    const std::string why = checkFusable(*g, params);
+    if (!why.empty()) throw std::invalid_argument(std::string(g == &a ? "map A: " : "map B: ") + why);
+  }
+  const double ratio = b.resolution / a.resolution;
+  if (ratio > params.max_resolution_ratio || ratio < 1.0 / params.max_resolution_ratio)
+    throw std::invalid_argument("resolutions " + std::to_string(a.resolution) + " and " +
+                                std::to_string(b.resolution) + " differ too much to resample");
+  FusionResult result = searchAndVerify(a, b, params);
+  if (result.accepted || !result.verdict.no_overlap_found || params.retry_finer < 1) return result;
+  // Nothing found: once more with finer coarse and Fourier levels (about 3x the time), if the
+  // maps are large enough for that to change anything.
+  FusionParams finer = params;
+  finer.coarse_max_cells = params.coarse_max_cells << params.retry_finer;
+  finer.fourier_max_cells = params.fourier_max_cells << params.retry_finer;
+  const int longest = std::max({a.width, a.height, static_cast<int>(std::lround(b.width * ratio)),
+                                static_cast<int>(std::lround(b.height * ratio))});
+  if (longest <= params.coarse_max_cells) return result;  // already searched at full resolution
+  FusionResult retry = searchAndVerify(a, b, finer);
+  retry.time_ms += result.time_ms;
+  retry.hypotheses += result.hypotheses;
+  double first_ms = 0;
+  for (const auto& [stage, ms] : result.stage_ms) first_ms += ms;
+  retry.stage_ms.insert(retry.stage_ms.begin(), {"first search", first_ms});
+  return retry;
 }
 
 }  // namespace mrslam::fusion

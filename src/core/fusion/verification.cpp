@@ -39,6 +39,7 @@ Verdict verify(const SimilarityCounts& counts, double resolution, double distinc
   v.entropy_increase = fusedEntropyIncrease(counts);
   std::ostringstream why;
   why.precision(3);
+  v.no_overlap_found = v.shared_wall_m < p.min_shared_wall_m || v.shared_wall_fraction < p.min_shared_wall_fraction;
   if (v.shared_wall_m < p.min_shared_wall_m)
     why << "too little shared wall (" << v.shared_wall_m << " m < " << p.min_shared_wall_m << " m)";
   else if (v.shared_wall_fraction < p.min_shared_wall_fraction)
