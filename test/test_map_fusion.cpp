@@ -44,6 +44,30 @@ fs::path tempDir() {
   return dir;
 }
 
+// Maps of two time windows [first_a, end_a) and [first_b, end_b) of a real corrected CARMEN
+// log, ray-cast along the reference poses with the benchmark's drift (seeded), B's map frame at
+// `b_frame` in A's (the truth).
+struct WindowPair {
+  OccupancyGrid a, b;
+};
+WindowPair windowPair(const std::string& log, size_t first_a, size_t end_a, size_t first_b, size_t end_b,
+                      const Pose2D& b_frame, unsigned drift_seed) {
+  const auto scans = bench::readCarmenScans(test::dataPath("logs/carmen_corrected/" + log));
+  EXPECT_GE(scans.size(), std::max(end_a, end_b));
+  std::mt19937 rng(drift_seed);
+  const bench::RaycastParams raycast;
+  WindowPair pair;
+  pair.a = bench::raycastMap(scans, first_a, end_a, Pose2D{}, raycast, rng);
+  pair.b = bench::raycastMap(scans, first_b, end_b, b_frame, raycast, rng);
+  return pair;
+}
+
+void expectCorrect(const FusionResult& r, const OccupancyGrid& b, const Pose2D& truth) {
+  ASSERT_TRUE(r.accepted) << r.verdict.reason;
+  const PoseError e = poseError(b, r.pose, truth);
+  EXPECT_LE(e.yaw_deg, 1.0);
+  EXPECT_LE(e.cells, 2.0);
+}
 }  // namespace
 
 TEST(MapFusion, AlignsTwoRealCropsUnderALargeRotation) {
@@ -60,19 +84,10 @@ TEST(MapFusion, AlignsTwoRealCropsUnderALargeRotation) {
 }
 
 TEST(MapFusion, AlignsMapsOfTwoTimeWindowsOfARealLog) {
-  // Two "robots": scans 0-449 and 350-909 of the Intel log, the second in its own frame.
-  const auto scans = bench::readCarmenScans(test::dataPath("logs/carmen_corrected/intel-corrected.log.gz"));
-  ASSERT_EQ(scans.size(), 910u);
-  std::mt19937 rng(1);
-  bench::RaycastParams raycast;
-  const OccupancyGrid a = bench::raycastMap(scans, 0, 450, Pose2D{}, raycast, rng);
+  // Two "robots": scans 0-449 and 350-909 of the Intel log (910 scans), the second in its own frame.
   const Pose2D truth{-12.0, 31.0, -71.0 * kDeg};
-  const OccupancyGrid b = bench::raycastMap(scans, 350, 910, truth, raycast, rng);
-  const FusionResult r = alignMaps(a, b, FusionParams{});
-  ASSERT_TRUE(r.accepted) << r.verdict.reason;
-  const PoseError e = poseError(b, r.pose, truth);
-  EXPECT_LE(e.yaw_deg, 1.0);
-  EXPECT_LE(e.cells, 2.0);
+  const WindowPair maps = windowPair("intel-corrected.log.gz", 0, 450, 350, 910, truth, 1);
+  expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }
 
 TEST(MapFusion, SearchesFinerWhenTheCoarseSearchFindsNoOverlap) {
@@ -80,23 +95,14 @@ TEST(MapFusion, SearchesFinerWhenTheCoarseSearchFindsNoOverlap) {
   // the benchmark's drift: the global rotation candidate is 2 degrees off, at the coarse level
   // the corridors do not line up and the best pose shares too little wall; one level finer
   // they do. (Without drift the coarse search succeeds; 10 of 12 drift seeds need the retry.)
-  const auto scans = bench::readCarmenScans(test::dataPath("logs/carmen_corrected/freiburg-079-corrected.log.gz"));
-  ASSERT_GT(scans.size(), 3703u);
-  std::mt19937 rng(2);
-  bench::RaycastParams raycast;
-  const OccupancyGrid a = bench::raycastMap(scans, 1149, 2704, Pose2D{}, raycast, rng);
   const Pose2D truth{-9.51427, -9.20342, 1.56724};
-  const OccupancyGrid b = bench::raycastMap(scans, 2140, 3703, truth, raycast, rng);
+  const WindowPair maps = windowPair("freiburg-079-corrected.log.gz", 1149, 2704, 2140, 3703, truth, 2);
   FusionParams coarse_only;
   coarse_only.retry_finer = 0;
-  const FusionResult first = alignMaps(a, b, coarse_only);
+  const FusionResult first = alignMaps(maps.a, maps.b, coarse_only);
   EXPECT_FALSE(first.accepted);
   EXPECT_TRUE(first.verdict.no_overlap_found) << first.verdict.reason;
-  const FusionResult r = alignMaps(a, b, FusionParams{});
-  ASSERT_TRUE(r.accepted) << r.verdict.reason;
-  const PoseError e = poseError(b, r.pose, truth);
-  EXPECT_LE(e.yaw_deg, 1.0);
-  EXPECT_LE(e.cells, 2.0);
+  expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }
 
 TEST(MapFusion, ResamplesAMapOfCoarserResolution) {
