@@ -59,6 +59,7 @@ struct FusionParams {
 
   int retry_finer = 1;            // a search whose best pose shares too little wall is repeated
                                   // with the coarse and Fourier levels this many levels finer
+  int retry_rotation_candidates = 5;  // ...and this many spectrum peaks
   double max_resolution_ratio = 4.0;  // maps whose resolutions differ more are refused
   VerificationParams verification;
 };
@@ -86,9 +87,9 @@ std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params);
 // Throws std::invalid_argument for maps that fail checkFusable or whose resolutions are too
 // far apart. A rejected merge is not an error: accepted == false and verdict.reason says why.
 // When the best pose found shares too little wall to be evidence of anything (verdict
-// no_overlap_found), the whole search runs again on levels retry_finer times finer (our
-// extension: long corridors can vanish at the coarse level); a pose rejected for any other
-// reason (ambiguity, V, entropy) is final.
+// no_overlap_found), the whole search runs again on levels retry_finer times finer, with
+// retry_rotation_candidates rotation candidates (our extension: long corridors can vanish at
+// the coarse level); a pose rejected for any other reason (ambiguity, V, entropy) is final.
 FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params);
 
 }  // namespace mrslam::fusion

@@ -59,6 +59,7 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
       {"max_free_points", bind(p.max_free_points)},
       {"disagreement_weight", bind(p.disagreement_weight)},
       {"retry_finer", bind(p.retry_finer)},
+      {"retry_rotation_candidates", bind(p.retry_rotation_candidates)},
       {"max_resolution_ratio", bind(p.max_resolution_ratio)},
       {"min_acceptance", bind(v.min_acceptance)},
       {"min_wall_agreement", bind(v.min_wall_agreement)},
@@ -92,7 +93,7 @@ FusionParams loadFusionParams(const std::string& yaml_path) {
   }
   if (p.segments.segment.points < 3 || p.segments.segment.distance_bins < 1 ||
       p.segments.segment.arc_bins < 1 || p.coarse_max_cells < 16 || p.fourier_max_cells < 16 || p.spectrum_max_cells < 16 ||
-      p.refined_hypotheses < 1 || p.retry_finer < 0 || p.rotation_candidates < 1 || p.translation_peaks < 1 ||
+      p.refined_hypotheses < 1 || p.retry_finer < 0 || p.retry_rotation_candidates < 1 || p.rotation_candidates < 1 || p.translation_peaks < 1 ||
       !(p.spectrum_step_deg > 0) || !(p.radon_step_deg > 0) || !(p.max_resolution_ratio >= 1))
     throw ParamsError(yaml_path + ": a parameter is out of range (see config/fusion.yaml)");
   return p;

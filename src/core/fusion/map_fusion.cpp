@@ -267,11 +267,12 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
                                 std::to_string(b.resolution) + " differ too much to resample");
   FusionResult result = searchAndVerify(a, b, params);
   if (result.accepted || !result.verdict.no_overlap_found || params.retry_finer < 1) return result;
-  // Nothing found: once more with finer coarse and Fourier levels (about 3x the time), if the
-  // maps are large enough for that to change anything.
+  // Nothing found: once more with finer coarse and Fourier levels and more rotation candidates
+  // (about 4x the time), if the maps are large enough for that to change anything.
   FusionParams finer = params;
   finer.coarse_max_cells = params.coarse_max_cells << params.retry_finer;
   finer.fourier_max_cells = params.fourier_max_cells << params.retry_finer;
+  finer.rotation_candidates = std::max(params.rotation_candidates, params.retry_rotation_candidates);
   const int longest = std::max({a.width, a.height, static_cast<int>(std::lround(b.width * ratio)),
                                 static_cast<int>(std::lround(b.height * ratio))});
   if (longest <= params.coarse_max_cells) return result;  // already searched at full resolution
