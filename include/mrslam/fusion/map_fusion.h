@@ -70,6 +70,9 @@ struct FusionResult {
   CellTransform cells;   // the same in A's cells (B resampled to A's resolution)
   Verdict verdict;
   int hypotheses = 0;    // hypotheses scored on the coarse level
+  // Final poses that outscored the answer but failed the checks on their own counts (V, wall
+  // agreement, shared wall, entropy) and were set aside, e.g. a symmetric building's twin.
+  int set_aside = 0;
   double time_ms = 0;
   // Where the time went: preparation, rotation spectra, Fourier search, segments, coarse
   // scoring, pyramid tuning, polish and verification (milliseconds each).
@@ -90,6 +93,8 @@ std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params);
 // no_overlap_found), the whole search runs again on levels retry_finer times finer, with
 // retry_rotation_candidates rotation candidates (our extension: long corridors can vanish at
 // the coarse level); a pose rejected for any other reason (ambiguity, V, entropy) is final.
+// The answer is the best-scoring final pose that passes the checks on its own counts; poses
+// that fail them are neither the answer nor rivals in the ambiguity check.
 FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params);
 
 }  // namespace mrslam::fusion

@@ -207,32 +207,51 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
 
   // Polish every survivor before choosing: the pyramid ends with quarter-degree rotation
   // steps (a cell or more at 30 m), enough for a symmetric impostor (ACES turned by 180
-  // degrees) to outscore the slightly misaligned truth. The sub-cell chamfer polish is kept
-  // where the similarity index does not object to it.
+  // degrees) to outscore the slightly misaligned truth. The polish is kept unless the
+  // similarity index drops by a tenth (a diverged polish): it reads a subsample of B's free
+  // cells, whose aliasing with one-cell walls moves a score by 1-2 % from one pose to the next,
+  // so a tighter guard (we had 2 %) threw away polishes that moved a pose 2 cells closer to
+  // the truth (scripts/bench_merge, an ACES window pair of seed 99).
   if (params.chamfer_polish && finest) {
     const ChamferPolish chamfer(ternary_a, ternary_b, params.chamfer_truncation);
     for (SearchResult& f : finals) {
       const CellTransform polished = chamfer.polish(f.transform);
       const SimilarityCounts counts = full.evaluate(polished);
-      if (counts.score(w) >= 0.98 * f.counts.score(w)) f = {polished, counts};
+      if (counts.score(w) >= 0.9 * f.counts.score(w)) f = {polished, counts};
     }
   }
-  const auto best = std::max_element(finals.begin(), finals.end(), [w](const SearchResult& x, const SearchResult& y) {
-    return x.counts.score(w) < y.counts.score(w);
+  // A final whose own counts fail the checks (V, wall agreement, shared wall, entropy)
+  // contradicts the maps: it is neither the answer nor a rival to one. The best plausible final
+  // is the answer; when none is plausible the best one is reported with its reason.
+  const double walls_a = cv::countNonZero(ternary_a == kOccupiedCell);
+  const double walls_b = cv::countNonZero(ternary_b == kOccupiedCell);
+  const double smaller_walls = std::min(walls_a, walls_b);
+  auto plausible = [&](const SearchResult& f) {
+    return verify(f.counts, a.resolution, 1.0, smaller_walls, 0.0, params.verification).accepted;
+  };
+  std::sort(finals.begin(), finals.end(), [w](const SearchResult& x, const SearchResult& y) {
+    return x.counts.score(w) > y.counts.score(w);
   });
+  const auto first_plausible = std::find_if(finals.begin(), finals.end(), plausible);
+  if (first_plausible != finals.end()) {
+    result.set_aside = static_cast<int>(first_plausible - finals.begin());
+    std::rotate(finals.begin(), first_plausible, first_plausible + 1);
+  }
+  const auto best = finals.begin();
   if (best == finals.end()) {
     result.verdict.reason = "no hypothesis found";
   } else {
-    // The best distinct alternative: a pose elsewhere that explains the maps nearly as well
-    // means we cannot tell where B is (symmetric buildings, repeated rooms). The comparison is
-    // made with the disagreement weight w and again with 2w: a choice that flips when
-    // conflicts count double (a small clean overlap against a larger one with a few percent
-    // of conflicts, e.g. ACES and its half-turn twin) is not a choice we can stand behind.
+    // The best distinct plausible alternative: a pose elsewhere that explains the maps nearly
+    // as well means we cannot tell where B is (symmetric buildings, repeated rooms). The
+    // comparison is made with the disagreement weight w and again with 2w: a choice that
+    // flips when conflicts count double (a small clean overlap against a larger one with a
+    // few percent of conflicts, e.g. ACES and its half-turn twin) is not a choice we can
+    // stand behind.
     double ambiguity = best->counts.score(w) > 0 ? 0.0 : 1.0;
     const double distinct_cells = params.verification.distinct_shift_m / a.resolution;
     for (const SearchResult& f : finals) {
-      if (&f == &*best || sameHypothesis(f.transform, best->transform, distinct_cells,
-                                         params.verification.distinct_turn_deg * kDeg))
+      if (&f == &*best || !plausible(f) ||
+          sameHypothesis(f.transform, best->transform, distinct_cells, params.verification.distinct_turn_deg * kDeg))
         continue;
       for (const double weight : {w, 2 * w}) {
         const double best_score = best->counts.score(weight);
@@ -241,10 +260,8 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
     }
     stage("polish");
     result.cells = best->transform;
-    const double walls_a = cv::countNonZero(ternary_a == kOccupiedCell);
-    const double walls_b = cv::countNonZero(ternary_b == kOccupiedCell);
     result.verdict = verify(best->counts, a.resolution, distinctiveness(full, *best, a.resolution, params),
-                            std::min(walls_a, walls_b), ambiguity, params.verification);
+                            smaller_walls, ambiguity, params.verification);
     result.accepted = result.verdict.accepted;
     result.pose = poseFromCells(a, b, result.cells);
     stage("verify");
