@@ -221,8 +221,8 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
     }
   }
   // A final whose own counts fail the checks (V, wall agreement, shared wall, entropy)
-  // contradicts the maps: it is neither the answer nor a rival to one. The best plausible final
-  // is the answer; when none is plausible the best one is reported with its reason.
+  // contradicts the maps and is set aside as the answer. The best plausible final is the
+  // answer; when none is plausible the best one is reported with its reason.
   const double walls_a = cv::countNonZero(ternary_a == kOccupiedCell);
   const double walls_b = cv::countNonZero(ternary_b == kOccupiedCell);
   const double smaller_walls = std::min(walls_a, walls_b);
@@ -246,14 +246,18 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
     // comparison is made with the disagreement weight w and again with 2w: a choice that
     // flips when conflicts count double (a small clean overlap against a larger one with a
     // few percent of conflicts, e.g. ACES and its half-turn twin) is not a choice we can
-    // stand behind.
+    // stand behind. A set-aside final is a rival only with 2w: a twin that loses on its own
+    // counts yet still outscores the answer when conflicts count double is one we cannot rule
+    // out with confidence either.
     double ambiguity = best->counts.score(w) > 0 ? 0.0 : 1.0;
     const double distinct_cells = params.verification.distinct_shift_m / a.resolution;
     for (const SearchResult& f : finals) {
-      if (&f == &*best || !plausible(f) ||
+      if (&f == &*best ||
           sameHypothesis(f.transform, best->transform, distinct_cells, params.verification.distinct_turn_deg * kDeg))
         continue;
+      const bool contradicts_maps = !plausible(f);
       for (const double weight : {w, 2 * w}) {
+        if (contradicts_maps && weight == w) continue;
         const double best_score = best->counts.score(weight);
         ambiguity = std::max(ambiguity, best_score > 0 ? f.counts.score(weight) / best_score : 1.0);
       }
