@@ -105,6 +105,17 @@ TEST(MapFusion, SearchesFinerWhenTheCoarseSearchFindsNoOverlap) {
   expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }
 
+TEST(MapFusion, AcceptsRealWindowsWhoseWallsAgreeLess) {
+  // Two windows of the real ACES log (a pair of the merge benchmark, seed 42). ACES walls are
+  // cluttered, so even at the true pose only ~70 % of B's obstacles (in A's known space) land on
+  // A's: this pair was rejected while the wall agreement floor was 0.75.
+  const Pose2D truth{-34.34201, 27.19592, 0.762330};
+  const WindowPair maps = windowPair("aces-corrected.log.gz", 193, 424, 30, 172, truth, 3);
+  const FusionResult r = alignMaps(maps.a, maps.b, FusionParams{});
+  EXPECT_LT(r.verdict.wall_agreement, 0.75);
+  expectCorrect(r, maps.b, truth);
+}
+
 TEST(MapFusion, SetsAsideATwinThatContradictsTheMaps) {
   // Two crops of the real ACES map (a pair of the merge benchmark, seed 7). ACES is nearly
   // symmetric under a half turn: its twin pose overlays more of the maps than the truth and

@@ -21,7 +21,7 @@ namespace mrslam::fusion {
 
 struct VerificationParams {
   double min_acceptance = 0.97;        // V
-  double min_wall_agreement = 0.75;    // share of B's obstacles in A's known space on A's obstacles
+  double min_wall_agreement = 0.65;    // share of B's obstacles in A's known space on A's obstacles
   double min_shared_wall_m = 8.0;      // agreeing obstacle cells x resolution
   double min_shared_wall_fraction = 0.15;  // agreeing obstacle cells / obstacle cells of the smaller map
   double max_entropy_increase = 0.15;  // bits: H(fused) - mean(H(A), H(B)) over the overlap
