@@ -1,12 +1,8 @@
 // rostest (test/multi_robot.test): three robots from three time windows of the real Intel log,
 // all under one master, each running robot.launch (front end, map share, map merge).
 //
-// Ground truth. The corrected log's reference poses are one consistent trajectory in one world
-// frame. Each robot's map frame is where its own filter put it, so we place it in the world by
-// the rigid transform T_N that best aligns (least squares) the robot's published poses with the
-// reference poses of the same scans (both in the bag / on the robot's topics). The true pose of
-// robotM/map in robotN/map is T_N^-1 * T_M; it absorbs how each robot defined its map frame
-// and averages its drift over the window.
+// Ground truth: each robot's map frame placed in the log's world frame by fitting its published
+// poses to the reference poses in the bag (mrslam/bench/peer_frame_truth.h).
 //
 // Checks: every merger accepts every peer within 1 degree and 2 cells of the truth (the cells
 // measured where the peer's map lands: at the centre of its trajectory), read once the bag has
@@ -28,7 +24,7 @@
 #include <map>
 #include <mutex>
 
-#include "mrslam/bench/trajectory_metrics.h"
+#include "mrslam/bench/peer_frame_truth.h"
 #include "mrslam/map_io.h"
 
 namespace {
@@ -45,8 +41,7 @@ struct PeerStatus {
   bool current = false;  // the estimate describes both maps as they are now
 };
 
-struct Robot {
-  std::map<uint64_t, Pose2D> estimate, reference;
+struct Robot : mrslam::bench::RobotTrack {
   std::map<std::string, PeerStatus> peers;
   nav_msgs::OccupancyGrid::ConstPtr merged;
   std::vector<ros::Subscriber> subs;
@@ -93,17 +88,6 @@ class MultiRobotTest : public ::testing::Test {
         }));
   }
 
-
-  // Where robot `name`'s map frame sits in the log's world frame (see the file comment).
-  Pose2D frameInWorld(const std::string& name) {
-    std::vector<Pose2D> from, to;
-    for (const auto& [stamp, pose] : robots[name].estimate) {
-      const auto ref = robots[name].reference.find(stamp);
-      if (ref != robots[name].reference.end()) from.push_back(pose), to.push_back(ref->second);
-    }
-    EXPECT_GT(from.size(), 20u) << name << ": too few poses with a reference";
-    return mrslam::bench::fitRigid(from, to);
-  }
 };
 
 mrslam::LocalMapShare shareOf(const std::string& id, const mrslam::OccupancyGrid& grid, uint32_t version) {
@@ -216,7 +200,11 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
 
   std::lock_guard<std::mutex> lock(mutex);
   std::map<std::string, Pose2D> world;
-  for (const auto& n : names) world[n] = frameInWorld(n);
+  for (const auto& n : names) {
+    const auto frame = mrslam::bench::frameInWorld(robots[n]);
+    ASSERT_TRUE(frame) << n << ": too few poses with a reference";
+    world[n] = *frame;
+  }
   for (const auto& n : names) {
     if (!joined) break;
     // The late peer's map frame is the world frame: its truth in robotN/map is T_N^-1. Error
@@ -244,17 +232,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       ASSERT_TRUE(r.peers.count(m)) << n << " never discovered " << m;
       const PeerStatus& p = r.peers[m];
       EXPECT_TRUE(p.accepted) << n << " did not accept " << m;
-      const Pose2D truth = world[n].inverse().compose(world[m]);
-      const double dyaw = std::abs(Pose2D::normalizeAngle(p.pose.yaw - truth.yaw)) * 180 / M_PI;
-      // As in the merge benchmark, the translation error is where the peer's map lands: at the
-      // centre of what it mapped (the centroid of its trajectory, in its own map frame).
-      double cx = 0, cy = 0;
-      for (const auto& [stamp, pose] : robots[m].estimate) cx += pose.x, cy += pose.y;
-      cx /= std::max<size_t>(1, robots[m].estimate.size()), cy /= std::max<size_t>(1, robots[m].estimate.size());
-      double ex, ey, tx, ty;
-      p.pose.apply(cx, cy, ex, ey);
-      truth.apply(cx, cy, tx, ty);
-      const double dcells = std::hypot(ex - tx, ey - ty) / 0.05;
+      const mrslam::bench::FrameError e = mrslam::bench::peerFrameError(p.pose, world[n], world[m], robots[m]);
+      const double dyaw = e.yaw_deg, dcells = e.metres / 0.05;
       std::printf("%s <- %s: V %.3f, error %.2f cells, %.2f deg\n", n.c_str(), m.c_str(), p.acceptance, dcells, dyaw);
       EXPECT_LE(dyaw, max_error_deg) << n << " <- " << m;
       EXPECT_LE(dcells, max_error_cells) << n << " <- " << m;

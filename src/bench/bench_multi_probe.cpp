@@ -1,16 +1,36 @@
 // mrslam_bench_multi_probe N SECONDS: watches a running multi-robot stack (robot1..robotN) for
 // SECONDS of wall time and prints, as key=value lines: the simulated time that passed (so the
 // real-time factor achieved), the poses each robot published, how many robot pairs are merged,
-// and for each merged pair the simulated time from the peer's first map to the accepted transform.
+// and for each merged pair the simulated time from the peer's first map to the accepted transform
+// and whether the accepted transform is correct (within 1 degree and 2 cells of the truth from
+// the bag's reference poses, mrslam/bench/peer_frame_truth.h).
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
+#include <tf2/utils.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <vector>
+
+#include "mrslam/bench/peer_frame_truth.h"
+
+namespace {
+mrslam::Pose2D toPose(const geometry_msgs::Pose& p) {
+  return {p.position.x, p.position.y, tf2::getYaw(p.orientation)};
+}
+struct PairStatus {
+  bool accepted = false;
+  double delay = -1;  // simulated s from the peer's first map to the accepted transform
+  mrslam::Pose2D pose;
+  bool current = false;  // the estimate was made on both maps as they are now
+};
+}  // namespace
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "mrslam_bench_multi_probe", ros::init_options::AnonymousName);
@@ -22,8 +42,8 @@ int main(int argc, char** argv) {
   const double seconds = std::atof(argv[2]);
   ros::NodeHandle nh;
   std::mutex mutex;
-  std::map<int, size_t> poses;
-  std::map<std::pair<int, std::string>, std::pair<bool, double>> pairs;  // accepted, delay
+  std::map<int, mrslam::bench::RobotTrack> tracks;
+  std::map<std::pair<int, std::string>, PairStatus> pairs;
   double first_clock = -1, last_clock = -1;
   ros::WallTime first_wall, last_wall;
   std::vector<ros::Subscriber> subs;
@@ -35,9 +55,14 @@ int main(int argc, char** argv) {
   for (int k = 1; k <= robots; ++k) {
     const std::string r = "/robot" + std::to_string(k);
     subs.push_back(nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
-        r + "/pose", 100, [&, k](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr&) {
+        r + "/pose", 100, [&, k](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
           std::lock_guard<std::mutex> lock(mutex);
-          ++poses[k];
+          tracks[k].estimate[m->header.stamp.toNSec()] = toPose(m->pose.pose);
+        }));
+    subs.push_back(nh.subscribe<geometry_msgs::PoseStamped>(
+        r + "/reference_pose", 100, [&, k](const geometry_msgs::PoseStamped::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex);
+          tracks[k].reference[m->header.stamp.toNSec()] = toPose(m->pose);
         }));
     subs.push_back(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
         r + "/merge_status", 10, [&, k](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
@@ -45,8 +70,14 @@ int main(int argc, char** argv) {
           for (const auto& s : m->status) {
             std::map<std::string, std::string> v;
             for (const auto& kv : s.values) v[kv.key] = kv.value;
-            const bool accepted = v["accepted"] == "True";
-            pairs[{k, s.name}] = {accepted, accepted ? std::stod(v["accepted_since"]) - std::stod(v["first_map_time"]) : -1};
+            PairStatus p;
+            p.accepted = v["accepted"] == "True";
+            if (p.accepted) {
+              p.delay = std::stod(v["accepted_since"]) - std::stod(v["first_map_time"]);
+              p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
+              p.current = v["estimate_current"] == "True";
+            }
+            pairs[{k, s.name}] = p;
           }
         }));
   }
@@ -60,16 +91,39 @@ int main(int argc, char** argv) {
   const double played_wall = first_clock >= 0 ? (last_wall - first_wall).toSec() : 0.0;
   std::printf("wall_s=%.1f sim_s=%.1f played_wall_s=%.1f\n", wall,
               last_clock > first_clock ? last_clock - first_clock : 0.0, played_wall);
-  for (int k = 1; k <= robots; ++k) std::printf("poses_robot%d=%zu\n", k, poses[k]);
-  int accepted = 0, total = 0;
+  std::map<int, std::optional<mrslam::Pose2D>> world;
+  std::map<int, double> rms;
+  for (int k = 1; k <= robots; ++k) {
+    world[k] = mrslam::bench::frameInWorld(tracks[k], 20, &rms[k]);
+    std::printf("poses_robot%d=%zu\n", k, tracks[k].estimate.size());
+    if (world[k]) std::printf("truth_fit_rms_robot%d=%.3f\n", k, rms[k]);
+  }
+  int accepted = 0, total = 0, correct = 0, unchecked = 0;
   std::vector<double> delays;
   for (const auto& [key, value] : pairs) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
-    if (value.first) ++accepted, delays.push_back(value.second);
+    if (!value.accepted) continue;
+    ++accepted, delays.push_back(value.delay);
+    const int peer = std::atoi(key.second.c_str() + 5);
+    if (!world[key.first] || world.count(peer) == 0 || !world[peer]) {
+      ++unchecked;
+      continue;
+    }
+    const auto e = mrslam::bench::peerFrameError(value.pose, *world[key.first], *world[peer], tracks[peer]);
+    const double cells = e.metres / 0.05;  // map_resolution in config/robot.yaml
+    if (e.yaw_deg <= 1.0 && cells <= 2.0) {
+      ++correct;
+    } else {
+      // The truth is only as good as the two robots' fits to the reference (their drift).
+      std::printf("outside robot%d <- %s: %.2f deg, %.2f cells (truth fit rms of the two robots: %.2f cells%s)\n",
+                  key.first, key.second.c_str(), e.yaw_deg, cells, std::hypot(rms[key.first], rms[peer]) / 0.05,
+                  value.current ? "" : "; estimate made on older maps");
+    }
   }
   std::sort(delays.begin(), delays.end());
   std::printf("pairs_seen=%d pairs_accepted=%d of_possible=%d\n", total, accepted, robots * (robots - 1));
+  std::printf("pairs_correct=%d pairs_unchecked=%d\n", correct, unchecked);
   if (!delays.empty())
     std::printf("first_map_to_accept_s median=%.1f max=%.1f\n", delays[delays.size() / 2], delays.back());
   return 0;
