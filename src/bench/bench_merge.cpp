@@ -21,6 +21,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/utils/logger.hpp>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -113,61 +114,19 @@ struct Builder {
   }
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::string data = "../shared/data", csv_path, config, dump_dir;
-  int per_band = 24, negatives = 18;
-  unsigned seed = 2026;
-  double drift_scale = 1.0;
-  bool run_mrpt = true, large = true, only_mrslam = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) { std::cerr << arg << " needs a value\n"; std::exit(2); }
-      return argv[++i];
-    };
-    if (arg == "--data") data = next();
-    else if (arg == "--per-band") per_band = std::stoi(next());
-    else if (arg == "--negatives") negatives = std::stoi(next());
-    else if (arg == "--seed") seed = static_cast<unsigned>(std::stoul(next()));
-    else if (arg == "--csv") csv_path = next();
-    else if (arg == "--drift-scale") drift_scale = std::stod(next());
-    else if (arg == "--config") config = next();
-    else if (arg == "--dump-failures") dump_dir = next();
-    else if (arg == "--only-mrslam") only_mrslam = true;
-    else if (arg == "--no-mrpt") run_mrpt = false;
-    else if (arg == "--no-large") large = false;
-    else {
-      std::cerr << "usage: mrslam_bench_merge [--data DIR] [--per-band N] [--negatives N] [--seed N] "
-                   "[--csv FILE] [--config fusion.yaml] [--no-mrpt] [--no-large] [--only-mrslam]\n"
-                   "                          [--drift-scale F]\n"
-                   "                          [--dump-failures DIR]\n";
-      return 2;
-    }
-  }
-  if (!dump_dir.empty()) std::filesystem::create_directories(dump_dir);
-  cv::setNumThreads(1);
-  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-  fusion::FusionParams params;
-  if (!config.empty()) params = fusion::loadFusionParams(config);
-
-  Builder builder{data, std::mt19937(seed), {}, {}, {}};
-  builder.raycast.drift_sigma_xy *= drift_scale;
-  builder.raycast.drift_sigma_yaw *= drift_scale;
+// The pairs of one seed: per_band overlapping pairs per overlap band (half time windows, half
+// crops, evenly over the sources), then `negatives` pairs of two different buildings.
+std::vector<Pair> makePairs(Builder& builder, int per_band, int negatives) {
   const std::vector<std::string> logs = {"intel", "aces", "freiburg-079", "freiburg-101"};
   // Crops: the reference maps and a robot-built floor. Not willow (its walls are grey: under
   // map_server's trinary rule it has 544 obstacle cells) nor rilo (its free_thresh 0.25 makes
   // the unknown grey 205 free, so it has no unknown space): no tool can be judged on those.
   const std::vector<std::string> crop_maps = {"reference/intel", "reference/aces", "reference/freiburg-079",
                                               "reference/freiburg-101", "robot_built/gdc_floor1"};
-  const std::vector<std::string> bands = {"25-50 %", "50-75 %", "75-100 %"};
-
-  // Overlapping pairs: half time windows, half crops, evenly over the bands and sources.
   std::vector<Pair> pairs;
+  // Overlapping pairs: half time windows, half crops, evenly over the bands and sources.
   std::map<std::string, int> filled;  // kind + band -> count
   const int per_kind = per_band / 2;
-  const auto t_gen = std::chrono::steady_clock::now();
   for (int attempt = 0; attempt < 4000; ++attempt) {
     const bool want_window = attempt % 2 == 0;
     const std::string kind = want_window ? "window" : "crop";
@@ -215,7 +174,73 @@ int main(int argc, char** argv) {
     p.name = la + " + " + lb;
     pairs.push_back(std::move(p));
   }
-  std::printf("# Map-merge benchmark (seed %u): %zu pairs built in %.0f s\n\n", seed, pairs.size(),
+  return pairs;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string data = "../shared/data", csv_path, config, dump_dir;
+  int per_band = 24, negatives = 18;
+  std::vector<unsigned> seeds = {2026};
+  double drift_scale = 1.0;
+  bool run_mrpt = true, large = true, only_mrslam = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) { std::cerr << arg << " needs a value\n"; std::exit(2); }
+      return argv[++i];
+    };
+    if (arg == "--data") data = next();
+    else if (arg == "--per-band") per_band = std::stoi(next());
+    else if (arg == "--negatives") negatives = std::stoi(next());
+    else if (arg == "--seed") seeds = {static_cast<unsigned>(std::stoul(next()))};
+    else if (arg == "--seeds") {  // e.g. 11,2026,7: the pairs of every seed, pooled in one table
+      seeds.clear();
+      std::stringstream list(next());
+      for (std::string item; std::getline(list, item, ',');) seeds.push_back(static_cast<unsigned>(std::stoul(item)));
+      if (seeds.empty()) { std::cerr << "--seeds needs a comma-separated list\n"; return 2; }
+    }
+    else if (arg == "--csv") csv_path = next();
+    else if (arg == "--drift-scale") drift_scale = std::stod(next());
+    else if (arg == "--config") config = next();
+    else if (arg == "--dump-failures") dump_dir = next();
+    else if (arg == "--only-mrslam") only_mrslam = true;
+    else if (arg == "--no-mrpt") run_mrpt = false;
+    else if (arg == "--no-large") large = false;
+    else {
+      std::cerr << "usage: mrslam_bench_merge [--data DIR] [--per-band N] [--negatives N] [--seed N | --seeds A,B,..] "
+                   "[--csv FILE] [--config fusion.yaml] [--no-mrpt] [--no-large] [--only-mrslam]\n"
+                   "                          [--drift-scale F]\n"
+                   "                          [--dump-failures DIR]\n";
+      return 2;
+    }
+  }
+  if (!dump_dir.empty()) std::filesystem::create_directories(dump_dir);
+  cv::setNumThreads(1);
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  fusion::FusionParams params;
+  if (!config.empty()) params = fusion::loadFusionParams(config);
+
+  Builder builder{data, std::mt19937(seeds.front()), {}, {}, {}};
+  builder.raycast.drift_sigma_xy *= drift_scale;
+  builder.raycast.drift_sigma_yaw *= drift_scale;
+  const std::vector<std::string> bands = {"25-50 %", "50-75 %", "75-100 %"};
+
+  // Each seed draws its own pairs; with several seeds the tables pool them.
+  std::vector<Pair> pairs;
+  const auto t_gen = std::chrono::steady_clock::now();
+  std::string seed_list;
+  for (const unsigned seed : seeds) {
+    builder.rng.seed(seed);
+    for (Pair& p : makePairs(builder, per_band, negatives)) {
+      if (seeds.size() > 1) p.name = "seed " + std::to_string(seed) + ": " + p.name;
+      pairs.push_back(std::move(p));
+    }
+    seed_list += (seed_list.empty() ? "" : ", ") + std::to_string(seed);
+  }
+  std::printf("# Map-merge benchmark (seed%s %s): %zu pairs built in %.0f s\n\n", seeds.size() > 1 ? "s" : "",
+              seed_list.c_str(), pairs.size(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t_gen).count());
 
   std::map<std::string, std::vector<double>> stage_times;  // mrslam's time per stage
