@@ -117,12 +117,11 @@ int main(int argc, char** argv) {
     } else {
       // The truth is only as good as the two robots' fits to the reference (their drift).
       // Both poses too, so the pair can be replayed offline on the saved maps (scripts/bench_multi).
-      const mrslam::Pose2D truth = world[key.first]->inverse().compose(*world[peer]);
       std::printf("outside robot%d <- %s: %.2f deg, %.2f cells (truth fit rms of the two robots: %.2f cells%s)"
                   " estimate %.3f %.3f %.4f truth %.3f %.3f %.4f\n",
                   key.first, key.second.c_str(), e.yaw_deg, cells, std::hypot(rms[key.first], rms[peer]) / 0.05,
                   value.current ? "" : "; estimate made on older maps", value.pose.x, value.pose.y, value.pose.yaw,
-                  truth.x, truth.y, truth.yaw);
+                  e.truth.x, e.truth.y, e.truth.yaw);
     }
   }
   std::sort(delays.begin(), delays.end());

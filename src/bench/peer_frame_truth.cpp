@@ -36,7 +36,7 @@ FrameError peerFrameError(const Pose2D& estimate, const Pose2D& n_in_world, cons
   double ex, ey, tx, ty;
   estimate.apply(cx, cy, ex, ey);
   truth.apply(cx, cy, tx, ty);
-  return {std::abs(Pose2D::normalizeAngle(estimate.yaw - truth.yaw)) * 180.0 / M_PI, std::hypot(ex - tx, ey - ty)};
+  return {std::abs(Pose2D::normalizeAngle(estimate.yaw - truth.yaw)) * 180.0 / M_PI, std::hypot(ex - tx, ey - ty), truth};
 }
 
 }  // namespace mrslam::bench

@@ -32,6 +32,7 @@ std::optional<Pose2D> frameInWorld(const RobotTrack& track, size_t min_poses = 2
 // own map frame).
 struct FrameError {
   double yaw_deg = 0, metres = 0;
+  Pose2D truth;  // the true pose of M's map frame in N's, T_N^-1 * T_M
 };
 FrameError peerFrameError(const Pose2D& estimate, const Pose2D& n_in_world, const Pose2D& m_in_world,
                           const RobotTrack& m);
