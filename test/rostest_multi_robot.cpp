@@ -87,7 +87,6 @@ class MultiRobotTest : public ::testing::Test {
           }
         }));
   }
-
 };
 
 mrslam::LocalMapShare shareOf(const std::string& id, const mrslam::OccupancyGrid& grid, uint32_t version) {
