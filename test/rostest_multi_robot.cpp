@@ -8,7 +8,9 @@
 // measured where the peer's map lands: at the centre of its trajectory), read once the bag has
 // ended and every estimate describes the final maps (merge_status: estimate_current); the tf tree
 // connects every robot's map frame from every other; merged maps are published; a peer that
-// sends a malformed grid is refused and one that sends a map of another building is rejected.
+// sends a malformed grid is refused and one that sends a map of another building is rejected;
+// peers sending maps the fusion must refuse (they once killed every manager) are refused and
+// every robot's merge_status keeps coming.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -21,6 +23,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <limits>
 #include <map>
 #include <mutex>
 
@@ -44,6 +47,7 @@ struct PeerStatus {
 struct Robot : mrslam::bench::RobotTrack {
   std::map<std::string, PeerStatus> peers;
   nav_msgs::OccupancyGrid::ConstPtr merged;
+  ros::WallTime last_status;  // when its merge_status last arrived: its manager is alive
   std::vector<ros::Subscriber> subs;
 };
 
@@ -72,6 +76,7 @@ class MultiRobotTest : public ::testing::Test {
     r.subs.push_back(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
         "/" + name + "/merge_status", 1, [this, name](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
           std::lock_guard<std::mutex> lock(mutex);
+          robots[name].last_status = ros::WallTime::now();
           auto& peers = robots[name].peers;
           peers.clear();
           for (const auto& status : m->status) {
@@ -123,12 +128,34 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   ros::AsyncSpinner spinner(2);
   spinner.start();
 
-  // Two misbehaving peers: one sends a malformed grid (data shorter than width x height), one
-  // the map of another building (Freiburg 101, a real map).
+  // Misbehaving peers: one sends a malformed grid (data shorter than width x height), one the
+  // map of another building (Freiburg 101, a real map), and hostile ones well-formed maps the
+  // fusion must refuse (each once took every robot's manager down): the Intel map at 0.5 m,
+  // 10x the robots' resolution; 300 x 300 all free (no walls); cells of 127; a NaN in the
+  // origin's orientation; and ids that are no tf prefix.
   mrslam::OccupancyGrid malformed;
   malformed.width = 200, malformed.height = 200, malformed.resolution = 0.05;
   malformed.data.assign(1000, 0);
   const mrslam::OccupancyGrid other = mrslam::loadMap(data_dir + "/maps/reference/freiburg-101.yaml");
+  const mrslam::OccupancyGrid intel = mrslam::loadMap(data_dir + "/maps/reference/intel.yaml");
+  std::vector<mrslam::LocalMapShare> hostile;
+  mrslam::OccupancyGrid coarse = intel;
+  coarse.resolution = 0.5;
+  hostile.push_back(shareOf("hostile_resolution", coarse, 1));
+  mrslam::OccupancyGrid all_free;
+  all_free.width = all_free.height = 300, all_free.resolution = 0.05;
+  all_free.data.assign(300 * 300, 0);
+  hostile.push_back(shareOf("hostile_all_free", all_free, 1));
+  mrslam::OccupancyGrid out_of_range = intel;
+  for (int8_t& v : out_of_range.data)
+    if (v < 0) v = 127;
+  hostile.push_back(shareOf("hostile_value_127", out_of_range, 1));
+  hostile.push_back(shareOf("hostile_nan_origin", intel, 1));
+  hostile.back().map.info.origin.orientation.z = std::numeric_limits<double>::quiet_NaN();
+  hostile.push_back(shareOf("/robot0", intel, 1));
+  hostile.push_back(shareOf("a/evil robot", intel, 1));
+  const std::vector<std::string> hostile_ids = {"hostile_resolution", "hostile_all_free", "hostile_value_127",
+                                                "hostile_nan_origin", "/robot0", "a/evil robot", "robot0"};
 
   // Measured on the final maps: the bag has ended (no pose for 3 s) and every robot's estimate
   // of every peer describes both maps as they are (the merger refreshes a changed map's estimate
@@ -144,6 +171,10 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     if (version % 5 == 1) {
       share_pub.publish(shareOf("intruder_malformed", malformed, version));
       share_pub.publish(shareOf("zz_other_building", other, version));
+      for (mrslam::LocalMapShare& h : hostile) {
+        h.version = version;
+        share_pub.publish(h);
+      }
     }
     std::lock_guard<std::mutex> lock(mutex);
     size_t poses = 0;
@@ -222,8 +253,10 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   }
   for (const auto& n : names) {
     Robot& r = robots[n];
+    EXPECT_LT((ros::WallTime::now() - r.last_status).toSec(), 5.0) << n << ": merge_status stopped (manager died?)";
     ASSERT_TRUE(r.merged) << n << ": no merged map";
     EXPECT_FALSE(r.peers.count("intruder_malformed")) << n << " took a malformed map";
+    for (const std::string& id : hostile_ids) EXPECT_FALSE(r.peers.count(id)) << n << " took the map of " << id;
     ASSERT_TRUE(r.peers.count("zz_other_building")) << n << " never saw the other building's map";
     EXPECT_FALSE(r.peers["zz_other_building"].accepted) << n << " merged a map of another building";
     for (const auto& m : names) {

@@ -5,6 +5,7 @@
 
 #include <cstdio>
 
+#include "mrslam/fusion/peer_quarantine.h"
 #include "mrslam/fusion/peer_registry.h"
 #include "mrslam/map_io.h"
 #include "mrslam/octomap_export.h"
@@ -95,6 +96,58 @@ TEST(PeerRegistry, RestartedPeerIsForgottenAndTheTfParentIsTheSmallestAcceptedId
   EXPECT_TRUE(registry.updatePeer("robot1", realMap(), 1, 2.0));
   EXPECT_FALSE(registry.peers().at("robot1").accepted);
   EXPECT_EQ(registry.parentOf().value_or(""), "robot2");
+}
+
+// The four peer maps that once took every robot's manager down (each a std::invalid_argument
+// thrown by the fusion and never caught): the nodelet's validator must refuse each of them
+// before the fusion sees it, and accept the real map they were made from.
+TEST(PeerMapCheck, RefusesExactlyWhatTheFusionWouldRefuse) {
+  const FusionParams params;
+  const OccupancyGrid& own = *realMap();
+  EXPECT_EQ(peerMapProblem(own, own.resolution, params), "");
+  EXPECT_NO_THROW(alignMaps(own, own, params));
+
+  OccupancyGrid coarse = own;
+  coarse.resolution = 10 * own.resolution;
+  OccupancyGrid all_free;
+  all_free.width = all_free.height = 300, all_free.resolution = own.resolution;
+  all_free.data.assign(300 * 300, 0);
+  OccupancyGrid out_of_range = own;
+  for (int8_t& v : out_of_range.data)
+    if (v < 0) v = 127;
+  OccupancyGrid nan_origin = own;
+  nan_origin.origin.yaw = std::nan("");
+  for (const OccupancyGrid* hostile : {&coarse, &all_free, &out_of_range, &nan_origin}) {
+    const std::string problem = peerMapProblem(*hostile, own.resolution, params);
+    EXPECT_NE(problem, "");
+    EXPECT_EQ(fusionInputProblem(own, *hostile, params).empty(), problem.empty());
+    EXPECT_THROW(alignMaps(own, *hostile, params), std::invalid_argument) << problem;
+  }
+  EXPECT_NE(peerMapProblem(coarse, own.resolution, params).find("differ too much"), std::string::npos);
+  EXPECT_EQ(peerMapProblem(coarse, 0.0, params), "") << "resolution unknown yet: only the map itself is checked";
+}
+
+TEST(PeerQuarantine, APeerRefusedSeveralTimesInARowIsNotHeardForAWhile) {
+  PeerQuarantine q({/*bad_maps_in_a_row=*/3, /*period_s=*/60.0});
+  EXPECT_FALSE(q.reportBad("robot9", 0.0));
+  EXPECT_FALSE(q.reportBad("robot9", 1.0));
+  q.reportGood("robot9");  // one good map ends the streak
+  EXPECT_FALSE(q.reportBad("robot9", 2.0));
+  EXPECT_FALSE(q.reportBad("robot9", 3.0));
+  EXPECT_FALSE(q.isQuarantined("robot9", 3.0));
+  EXPECT_TRUE(q.reportBad("robot9", 4.0)) << "third refusal in a row";
+  EXPECT_TRUE(q.isQuarantined("robot9", 63.9));
+  EXPECT_FALSE(q.isQuarantined("robot1", 10.0)) << "only the peer that sent them";
+  EXPECT_EQ(q.quarantined(10.0), std::vector<std::string>{"robot9"});
+  EXPECT_FALSE(q.isQuarantined("robot9", 64.0)) << "heard again after the period";
+  EXPECT_FALSE(q.reportBad("robot9", 65.0)) << "...from scratch";
+}
+
+TEST(PeerRegistry, RobotIdsMustBeTfPrefixes) {
+  for (const char* good : {"robot1", "R2", "robot_3", "a"}) EXPECT_TRUE(isValidRobotId(good)) << good;
+  for (const char* bad : {"", "/robot0", "a/evil robot", "1robot", "_robot", "robot-1", "robot 1", "robot\n"})
+    EXPECT_FALSE(isValidRobotId(bad)) << bad;
+  EXPECT_FALSE(isValidRobotId(std::string(65, 'r')));
 }
 
 }  // namespace

@@ -9,6 +9,13 @@
 // accepted, x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time),
 // diagnostics; service ~export_octomap (std_srvs/Trigger) writes the merged map as an OctoMap
 // .bt to the parameter octomap_path.
+//
+// Fault containment: nothing a peer sends may take this robot down. A share is checked in the
+// callback (id, grid structure, origin) and its grid again in the worker with exactly the
+// checks the fusion makes (fusion::peerMapProblem) before it replaces the peer's last good map;
+// a refused map is counted and named in diagnostics, and a peer refused bad_maps_to_quarantine
+// times in a row is not listened to for quarantine_period s. Anything the worker still throws
+// is caught, counted and logged with the peer it came from; the worker goes on.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -27,6 +34,7 @@
 #include "mrslam/fusion/fusion_params_io.h"
 #include "mrslam/fusion/grid_merge.h"
 #include "mrslam/fusion/map_fusion.h"
+#include "mrslam/fusion/peer_quarantine.h"
 #include "mrslam/fusion/peer_registry.h"
 #include "mrslam/octomap_export.h"
 #include "mrslam/ros/shared_map.h"
@@ -65,6 +73,11 @@ class MapMergeNodelet : public nodelet::Nodelet {
     pnh.param("refresh_period", registry_params.refresh_period, registry_params.refresh_period);
     pnh.param("revoke_after_rejections", registry_params.revoke_after_rejections, registry_params.revoke_after_rejections);
     registry_ = std::make_unique<fusion::PeerRegistry>(robot_id_, registry_params);
+    fusion::PeerQuarantineParams quarantine_params;
+    pnh.param("bad_maps_to_quarantine", quarantine_params.bad_maps_in_a_row, quarantine_params.bad_maps_in_a_row);
+    pnh.param("quarantine_period", quarantine_params.period_s, quarantine_params.period_s);
+    quarantine_ = fusion::PeerQuarantine(quarantine_params);
+    pnh.param("max_peers", max_peers_, max_peers_);
     if (!fusion_config.empty()) {
       try {
         fusion_params_ = fusion::loadFusionParams(fusion_config);
@@ -94,80 +107,208 @@ class MapMergeNodelet : public nodelet::Nodelet {
   }
 
   void onShare(const SharedMap::ConstPtr& share) {
-    if (share->robot_id == robot_id_) return;
-    std::string problem = share->robot_id.empty() ? "empty robot_id" : "";
-    if (problem.empty() && !share->map) problem = "no map";
-    if (problem.empty()) problem = gridMsgProblem(*share->map, static_cast<int64_t>(max_peer_cells_));
-    if (!problem.empty()) {
+    try {
+      checkShare(share);
+    } catch (const std::exception& e) {
+      recordFault("share of '" + printable(share->robot_id) + "'", e.what());
+    }
+  }
+
+  // The callback's checks: cheap, no copy of the grid (the worker converts it later).
+  void checkShare(const SharedMap::ConstPtr& share) {
+    const std::string& id = share->robot_id;
+    if (id == robot_id_) return;
+    if (!fusion::isValidRobotId(id)) {
+      refuseMap(id, "robot_id is not a valid tf prefix ([a-zA-Z][a-zA-Z0-9_]*, at most 64 characters)",
+                /*count_against_peer=*/false);
+      return;
+    }
+    {
       std::lock_guard<std::mutex> lock(mutex_);
-      ++rejected_maps_;
-      last_problem_ = "map of '" + share->robot_id + "' rejected: " + problem;
-      NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+      if (quarantine_.isQuarantined(id, ros::WallTime::now().toSec())) {
+        ++quarantined_shares_;
+        return;
+      }
+      if (!registry_->peers().count(id) && !pending_.count(id) &&
+          registry_->peers().size() + pending_.size() >= static_cast<size_t>(std::max(0, max_peers_))) {
+        ++rejected_maps_;
+        last_problem_ = "map of '" + id + "' refused: already " + std::to_string(max_peers_) + " peers (max_peers)";
+        NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+        return;
+      }
+    }
+    const std::string problem =
+        share->map ? gridMsgProblem(*share->map, static_cast<int64_t>(max_peer_cells_)) : std::string("no map");
+    if (!problem.empty()) {
+      refuseMap(id, problem);
       return;
     }
     // Only the newest map of each peer is kept; the worker converts it when it gets to it, so
     // the callback never copies a grid and maps superseded in the meantime are never copied.
     std::lock_guard<std::mutex> lock(mutex_);
-    pending_[share->robot_id] = share;
+    pending_[id] = share;
     wake_.notify_one();
   }
 
-  // The worker: one fusion at a time, never inside a callback.
+  // A map of `id` cannot be used: counted, named in diagnostics, logged (throttled) and, when
+  // `count_against_peer`, counted towards the peer's quarantine.
+  void refuseMap(const std::string& id, const std::string& problem, bool count_against_peer = true) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++rejected_maps_;
+    last_problem_ = "map of '" + printable(id) + "' refused: " + problem;
+    NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+    if (count_against_peer && quarantine_.reportBad(id, ros::WallTime::now().toSec()))
+      NODELET_WARN("peer '%s' quarantined for %.0f s: its maps were refused %d times in a row (last: %s)", id.c_str(),
+                   quarantine_.params().period_s, quarantine_.params().bad_maps_in_a_row, problem.c_str());
+  }
+
+  // A kept peer map turned out unusable: the peer is forgotten and the map refused.
+  void forgetPeer(const std::string& id, const std::string& problem) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      registry_->forget(id);
+    }
+    refuseMap(id, problem);
+  }
+
+  // An exception that escaped a step: counted and logged with where it came from.
+  void recordFault(const std::string& where, const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++faults_;
+    last_problem_ = where + ": " + what;
+    NODELET_ERROR_THROTTLE(5.0, "caught: %s", last_problem_.c_str());
+  }
+
+  // An id as it may appear in a log line: printable ASCII, at most 64 characters.
+  static std::string printable(const std::string& id) {
+    std::string out;
+    for (char c : id.substr(0, 64)) out += (c >= 32 && c < 127) ? c : '?';
+    return id.size() > 64 ? out + "..." : out;
+  }
+
+  // What the callbacks left for the worker, taken under the lock in one go.
+  struct Inbox {
+    nav_msgs::OccupancyGrid::ConstPtr own;              // set when our map changed
+    std::map<std::string, SharedMap::ConstPtr> shares;  // newest unconverted map of each peer
+  };
+
+  Inbox takeInbox() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    wake_.wait_for(lock, std::chrono::milliseconds(500));
+    Inbox in;
+    if (own_dirty_) in.own = own_msg_;
+    own_dirty_ = false;
+    in.shares.swap(pending_);
+    return in;
+  }
+
+  // The worker: one fusion at a time, never inside a callback, never holding the lock while
+  // converting a grid or fusing.
   void work() {
     while (!stop_) {
-      std::shared_ptr<const OccupancyGrid> own, peer_map;
-      std::string peer_id;
-      size_t own_known = 0;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait_for(lock, std::chrono::milliseconds(500));
-        if (stop_) return;
-        if (own_dirty_ && own_msg_) {
-          own_grid_ = std::make_shared<const OccupancyGrid>(gridFromMsg(*own_msg_));
-          own_known_ = fusion::knownCells(*own_grid_);
-          own_dirty_ = false;
-          own_changed_since_merge_ = true;
-        }
-        for (auto& [id, share] : pending_) {
-          if (registry_->updatePeer(id, std::make_shared<const OccupancyGrid>(gridFromMsg(*share->map)), share->version,
-                                    ros::Time::now().toSec()))
-            NODELET_INFO("discovered peer %s", id.c_str());
-        }
-        pending_.clear();
-        if (!own_grid_) continue;
-        own = own_grid_;
-        own_known = own_known_;
-        if (auto next = registry_->nextToEstimate(own_known, ros::WallTime::now().toSec())) {
-          peer_id = *next;
-          peer_map = registry_->peers().at(peer_id).map;
-        }
+      Inbox in = takeInbox();
+      if (stop_) return;
+      try {
+        step(in);
+      } catch (const std::exception& e) {
+        recordFault("merge worker", e.what());
+      } catch (...) {
+        recordFault("merge worker", "unknown exception");
       }
-      if (peer_map) {
-        const fusion::FusionResult result = fusion::alignMaps(*own, *peer_map, fusion_params_);
-        std::lock_guard<std::mutex> lock(mutex_);
-        const bool had = registry_->peers().at(peer_id).accepted.has_value();
-        if (registry_->applyEstimate(peer_id, result, own_known, ros::Time::now().toSec(), ros::WallTime::now().toSec())) {
-          if (!registry_->peers().at(peer_id).accepted)
-            NODELET_WARN("transform to %s revoked: rejected %d times in a row on grown maps (%s)", peer_id.c_str(),
-                         registry_->peers().at(peer_id).rejections_in_a_row, result.verdict.reason.c_str());
-          else if (!had)  // the first accept is news; refinements are not
-            NODELET_INFO("transform to %s: (%.2f, %.2f, %.1f deg), V %.3f", peer_id.c_str(), result.pose.x,
-                         result.pose.y, result.pose.yaw * 180 / M_PI, result.verdict.acceptance);
-          publishParentEdge();
-          merged_due_ = true;
-        }
-        publishStatus();
-      } else if ((ros::WallTime::now() - last_status_).toSec() >= 1.0) {
-        // Also once a second without news: whether each estimate still describes the current maps.
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (!registry_->peers().empty()) publishStatus();
-      }
-      // The merged map is rebuilt when a transform changed, or when our map changed and the
-      // last rebuild is older than merged_map_period; never for nothing.
-      const ros::WallTime now = ros::WallTime::now();
-      if (merged_due_ || (own_changed_since_merge_ && (now - last_merged_).toSec() >= merged_map_period_))
-        publishMerged(own);
     }
+  }
+
+  void step(const Inbox& in) {
+    if (in.own) takeOwnMap(*in.own);
+    for (const auto& [id, share] : in.shares) admitPeerMap(id, *share);
+    estimateNext();
+    // The merged map is rebuilt when a transform changed, or when our map changed and the
+    // last rebuild is older than merged_map_period; never for nothing.
+    std::shared_ptr<const OccupancyGrid> own;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      own = own_grid_;
+    }
+    const ros::WallTime now = ros::WallTime::now();
+    if (own && (merged_due_ || (own_changed_since_merge_ && (now - last_merged_).toSec() >= merged_map_period_)))
+      publishMerged(own);
+  }
+
+  void takeOwnMap(const nav_msgs::OccupancyGrid& msg) {
+    auto grid = std::make_shared<const OccupancyGrid>(gridFromMsg(msg));
+    const size_t known = fusion::knownCells(*grid);
+    std::lock_guard<std::mutex> lock(mutex_);
+    own_grid_ = std::move(grid);
+    own_known_ = known;
+    own_changed_since_merge_ = true;
+  }
+
+  // A peer's map replaces its last good one only if the fusion could take it.
+  void admitPeerMap(const std::string& id, const SharedMap& share) {
+    auto grid = std::make_shared<const OccupancyGrid>(gridFromMsg(*share.map));
+    double own_resolution = 0;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (own_grid_) own_resolution = own_grid_->resolution;
+    }
+    const std::string problem = fusion::peerMapProblem(*grid, own_resolution, fusion_params_);
+    if (!problem.empty()) {
+      refuseMap(id, problem);
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    quarantine_.reportGood(id);
+    if (registry_->updatePeer(id, std::move(grid), share.version, ros::Time::now().toSec()))
+      NODELET_INFO("discovered peer %s", id.c_str());
+  }
+
+  void estimateNext() {
+    std::shared_ptr<const OccupancyGrid> own, peer_map;
+    std::string peer_id;
+    size_t own_known = 0;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!own_grid_) return;
+      own = own_grid_;
+      own_known = own_known_;
+      if (auto next = registry_->nextToEstimate(own_known, ros::WallTime::now().toSec())) {
+        peer_id = *next;
+        peer_map = registry_->peers().at(peer_id).map;
+      } else {
+        if (!registry_->peers().empty() && (ros::WallTime::now() - last_status_).toSec() >= 1.0)
+          publishStatus();  // once a second without news: whether each estimate is still current
+        return;
+      }
+    }
+    // Our own map may not be fusable yet (no walls): that is nobody's fault, wait for it. A peer
+    // map admitted before our resolution was known may still be refused here.
+    if (!fusion::checkFusable(*own, fusion_params_).empty()) return;
+    const std::string problem = fusion::peerMapProblem(*peer_map, own->resolution, fusion_params_);
+    if (!problem.empty()) {
+      forgetPeer(peer_id, problem);
+      return;
+    }
+    fusion::FusionResult result;
+    try {
+      result = fusion::alignMaps(*own, *peer_map, fusion_params_);
+    } catch (const std::exception& e) {
+      forgetPeer(peer_id, std::string("fusion failed: ") + e.what());
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!registry_->peers().count(peer_id)) return;
+    const bool had = registry_->peers().at(peer_id).accepted.has_value();
+    if (registry_->applyEstimate(peer_id, result, own_known, ros::Time::now().toSec(), ros::WallTime::now().toSec())) {
+      if (!registry_->peers().at(peer_id).accepted)
+        NODELET_WARN("transform to %s revoked: rejected %d times in a row on grown maps (%s)", peer_id.c_str(),
+                     registry_->peers().at(peer_id).rejections_in_a_row, result.verdict.reason.c_str());
+      else if (!had)  // the first accept is news; refinements are not
+        NODELET_INFO("transform to %s: (%.2f, %.2f, %.1f deg), V %.3f", peer_id.c_str(), result.pose.x,
+                     result.pose.y, result.pose.yaw * 180 / M_PI, result.verdict.acceptance);
+      publishParentEdge();
+      merged_due_ = true;
+    }
+    publishStatus();
   }
 
   void publishParentEdge() {  // mutex_ held
@@ -265,10 +406,15 @@ class MapMergeNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     size_t accepted = 0;
     for (const auto& [id, peer] : registry_->peers()) accepted += peer.accepted.has_value();
-    status.summary(rejected_maps_ && !last_problem_.empty() ? diagnostic_msgs::DiagnosticStatus::WARN
-                                                            : diagnostic_msgs::DiagnosticStatus::OK,
+    status.summary((rejected_maps_ || faults_) && !last_problem_.empty() ? diagnostic_msgs::DiagnosticStatus::WARN
+                                                                          : diagnostic_msgs::DiagnosticStatus::OK,
                    std::to_string(accepted) + " of " + std::to_string(registry_->peers().size()) + " peers merged");
     status.add("peer maps rejected", rejected_maps_);
+    status.add("faults caught", faults_);
+    std::string quarantined;
+    for (const std::string& id : quarantine_.quarantined(ros::WallTime::now().toSec())) quarantined += id + " ";
+    status.add("peers quarantined", quarantined);
+    status.add("shares dropped from quarantined peers", quarantined_shares_);
     status.add("last problem", last_problem_);
     // For the zero-copy test: the address of the last own map object received.
     status.add("own map address", std::to_string(own_address_));
@@ -284,11 +430,13 @@ class MapMergeNodelet : public nodelet::Nodelet {
   double max_peer_cells_ = 64e6, merged_map_period_ = 2.0;
   fusion::FusionParams fusion_params_;
   std::unique_ptr<fusion::PeerRegistry> registry_;
+  fusion::PeerQuarantine quarantine_;
+  int max_peers_ = 32;
   nav_msgs::OccupancyGrid::ConstPtr own_msg_;
   std::shared_ptr<const OccupancyGrid> own_grid_;
   nav_msgs::OccupancyGrid::ConstPtr merged_;
   std::map<std::string, SharedMap::ConstPtr> pending_;  // newest unconverted map of each peer
-  size_t own_known_ = 0, rejected_maps_ = 0;
+  size_t own_known_ = 0, rejected_maps_ = 0, faults_ = 0, quarantined_shares_ = 0;
   uintptr_t own_address_ = 0;
   bool own_dirty_ = false, merged_due_ = false, own_changed_since_merge_ = false;
   ros::WallTime last_merged_, last_status_;

@@ -89,6 +89,20 @@ inline slam::LaserScan scanFromMsg(const sensor_msgs::LaserScan& msg) {
   return scan;
 }
 
+// Why a map origin cannot be used (empty when it can): every field finite, and the rotation a
+// unit quaternion about z (a grid is planar). The all-zero quaternion of a publisher that never
+// set it is read as no rotation, as map_server and rviz do.
+inline std::string originMsgProblem(const geometry_msgs::Pose& o) {
+  const auto& q = o.orientation;
+  for (double v : {o.position.x, o.position.y, o.position.z, q.x, q.y, q.z, q.w})
+    if (!std::isfinite(v)) return "origin is not finite";
+  const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  if (norm == 0.0) return "";
+  if (std::abs(norm - 1.0) > 1e-3) return "origin orientation is not a unit quaternion (norm " + std::to_string(norm) + ")";
+  if (std::hypot(q.x, q.y) > 1e-3) return "origin orientation is not a rotation about z";
+  return "";
+}
+
 // Why a grid message cannot be used (empty when it can): data size, resolution, size limit.
 inline std::string gridMsgProblem(const nav_msgs::OccupancyGrid& msg, int64_t max_cells) {
   const int64_t cells = static_cast<int64_t>(msg.info.width) * msg.info.height;
@@ -97,9 +111,7 @@ inline std::string gridMsgProblem(const nav_msgs::OccupancyGrid& msg, int64_t ma
   if (cells > max_cells) return "absurd size " + std::to_string(msg.info.width) + " x " + std::to_string(msg.info.height);
   if (static_cast<int64_t>(msg.data.size()) != cells)
     return "data size " + std::to_string(msg.data.size()) + " != width x height " + std::to_string(cells);
-  const auto& o = msg.info.origin;
-  if (!std::isfinite(o.position.x) || !std::isfinite(o.position.y) || !std::isfinite(o.orientation.w)) return "origin is not finite";
-  return "";
+  return originMsgProblem(msg.info.origin);
 }
 
 inline OccupancyGrid gridFromMsg(const nav_msgs::OccupancyGrid& msg) {

@@ -87,8 +87,17 @@ Pose2D poseFromCells(const OccupancyGrid& a, const OccupancyGrid& b, const CellT
 // known cells, or no obstacle edges.
 std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params);
 
-// Throws std::invalid_argument for maps that fail checkFusable or whose resolutions are too
-// far apart. A rejected merge is not an error: accepted == false and verdict.reason says why.
+// Why a peer's map B cannot be fused into a map of resolution `own_resolution` (empty string
+// if it can): checkFusable, or resolutions further apart than max_resolution_ratio (not
+// checked while own_resolution is 0, i.e. unknown). The map-merge nodelet asks this of every
+// peer map before it keeps it, so nothing a peer sends can make the fusion throw.
+std::string peerMapProblem(const OccupancyGrid& b, double own_resolution, const FusionParams& params);
+
+// Why B cannot be fused into A (empty string if it can): exactly what alignMaps refuses,
+// checkFusable on A and peerMapProblem on B.
+std::string fusionInputProblem(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params);
+
+// Throws std::invalid_argument when fusionInputProblem is not empty. A rejected merge is not an error: accepted == false and verdict.reason says why.
 // When the best pose found shares too little wall to be evidence of anything (verdict
 // no_overlap_found), the whole search runs again on levels retry_finer times finer, with
 // retry_rotation_candidates rotation candidates (our extension: long corridors can vanish at

@@ -60,6 +60,10 @@ struct Peer {
 
 size_t knownCells(const OccupancyGrid& grid);
 
+// A robot id names tf frames (robotN/map), so it must read as one tf prefix:
+// [a-zA-Z][a-zA-Z0-9_]*, at most 64 characters.
+bool isValidRobotId(const std::string& id);
+
 class PeerRegistry {
  public:
   explicit PeerRegistry(std::string self_id, const PeerRegistryParams& params = PeerRegistryParams{});
@@ -67,6 +71,8 @@ class PeerRegistry {
   // A new map from a peer. A version lower than the last one means the peer restarted: its map
   // frame is new, so what we knew about it is dropped. Returns true when the peer is new or rejoined.
   bool updatePeer(const std::string& id, std::shared_ptr<const OccupancyGrid> map, uint32_t version, double now);
+  // Drops all we know about a peer (its map could not be fused after all).
+  void forget(const std::string& id) { peers_.erase(id); }
   // The peer whose transform should be (re-)estimated next, given our map's known cells: never
   // estimated first, then the one whose maps grew the most, then one whose maps changed at all
   // and whose estimate is older than refresh_period on the scheduling `clock`. None when nothing

@@ -277,15 +277,28 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
 
 }  // namespace
 
+std::string peerMapProblem(const OccupancyGrid& b, double own_resolution, const FusionParams& params) {
+  const std::string why = checkFusable(b, params);
+  if (!why.empty()) return why;
+  if (own_resolution == 0.0) return "";
+  const double ratio = b.resolution / own_resolution;
+  if (!(ratio <= params.max_resolution_ratio && ratio >= 1.0 / params.max_resolution_ratio))
+    return "resolutions " + std::to_string(own_resolution) + " and " + std::to_string(b.resolution) +
+           " differ too much to resample (more than " + std::to_string(params.max_resolution_ratio) + " times)";
+  return "";
+}
+
+std::string fusionInputProblem(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
+  const std::string why = checkFusable(a, params);
+  if (!why.empty()) return "map A: " + why;
+  const std::string why_b = peerMapProblem(b, a.resolution, params);
+  return why_b.empty() || why_b.rfind("resolutions", 0) == 0 ? why_b : "map B: " + why_b;
+}
+
 FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
-  for (const OccupancyGrid* g : {&a, &b}) {
-    const std::string why = checkFusable(*g, params);
-    if (!why.empty()) throw std::invalid_argument(std::string(g == &a ? "map A: " : "map B: ") + why);
-  }
+  const std::string problem = fusionInputProblem(a, b, params);
+  if (!problem.empty()) throw std::invalid_argument(problem);
   const double ratio = b.resolution / a.resolution;
-  if (ratio > params.max_resolution_ratio || ratio < 1.0 / params.max_resolution_ratio)
-    throw std::invalid_argument("resolutions " + std::to_string(a.resolution) + " and " +
-                                std::to_string(b.resolution) + " differ too much to resample");
   FusionResult result = searchAndVerify(a, b, params);
   if (result.accepted || !result.verdict.no_overlap_found || params.retry_finer < 1) return result;
   // Nothing found: once more with finer coarse and Fourier levels and more rotation candidates

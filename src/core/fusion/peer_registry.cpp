@@ -8,6 +8,13 @@ size_t knownCells(const OccupancyGrid& grid) {
   return static_cast<size_t>(std::count_if(grid.data.begin(), grid.data.end(), [](int8_t v) { return v >= 0; }));
 }
 
+bool isValidRobotId(const std::string& id) {
+  auto letter = [](char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); };
+  auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  if (id.empty() || id.size() > 64 || !letter(id[0])) return false;
+  return std::all_of(id.begin(), id.end(), [&](char c) { return letter(c) || digit(c) || c == '_'; });
+}
+
 PeerRegistry::PeerRegistry(std::string self_id, const PeerRegistryParams& params)
     : self_(std::move(self_id)), params_(params) {}
 
