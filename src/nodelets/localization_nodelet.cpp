@@ -32,7 +32,7 @@
 #include <mutex>
 #include <optional>
 
-#include "mrslam/slam/robot_slam.h"
+#include "mrslam/slam/front_end.h"
 #include "mrslam/slam/simulated_gyro.h"
 #include "ros_conversions.h"
 #include "ros_params.h"
@@ -53,6 +53,9 @@ class LocalizationNodelet : public nodelet::Nodelet {
     pnh.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
     pnh.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
     params_ = robotSlamParamsFrom(pnh);
+    // The grid-mapping nodelet builds its own map along the published poses, which cannot
+    // follow a loop closure: this nodelet runs the paper's EKF front end until it owns the map.
+    params_.loop_closure = false;
 
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
@@ -144,7 +147,7 @@ class LocalizationNodelet : public nodelet::Nodelet {
         last_problem_ = "no laser transform: " + error;
         return;
       }
-      robot_ = std::make_unique<slam::RobotSlam>(params_, *laser);
+      robot_ = slam::makeFrontEnd(params_, *laser);
     }
     std::string error;
     const auto odom = lookupPose2D(*tf_buffer_, odom_frame_, base_frame_, msg->header.stamp, &error);
@@ -180,8 +183,8 @@ class LocalizationNodelet : public nodelet::Nodelet {
   }
 
   void publish(const ros::Time& stamp) {
-    const Pose2D pose = robot_->filter().pose();
-    const Eigen::Matrix3d& cov = robot_->filter().covariance();
+    const Pose2D pose = robot_->pose();
+    const Eigen::Matrix3d cov = robot_->covariance();
     if (publish_tf_ && last_odom_) {
       // map -> odom = (map -> base) * (odom -> base)^-1 with the odometry the filter has used.
       const Pose2D map_to_odom = pose.compose(last_odom_->inverse());
@@ -229,7 +232,7 @@ class LocalizationNodelet : public nodelet::Nodelet {
   double transform_tolerance_ = 0.1, max_time_jump_ = 1.0;
   slam::GyroNoiseModel gyro_model_;
   slam::RobotSlamParams params_;
-  std::unique_ptr<slam::RobotSlam> robot_;
+  std::unique_ptr<slam::FrontEnd> robot_;
   std::optional<Pose2D> last_odom_;
   std::optional<double> last_scan_time_;
   std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered

@@ -17,12 +17,14 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "mrslam/map_io.h"
 #include "mrslam/slam/robot_log.h"
 #include "mrslam/slam/robot_params.h"
-#include "mrslam/slam/robot_slam.h"
+#include "mrslam/slam/front_end.h"
 #include "mrslam/slam/simulated_gyro.h"
 
 namespace {
@@ -41,7 +43,7 @@ int fail(const std::string& message) {
 int main(int argc, char** argv) {
   namespace slam = mrslam::slam;
   std::string log_path, trajectory_path, map_path, config_path;
-  bool simulated_imu = false, scan_matching = true, stats = false, png = false;
+  bool simulated_imu = false, scan_matching = true, loop_closure = true, stats = false, png = false;
   unsigned imu_seed = 1;
   double window_start = 0, window_end = 0;  // seconds after the log's first scan; end 0 = to the end
   for (int i = 1; i < argc; ++i) {
@@ -69,6 +71,7 @@ int main(int argc, char** argv) {
     }
     else if (a == "--simulated-imu") simulated_imu = true;
     else if (a == "--no-scan-matching") scan_matching = false;
+    else if (a == "--no-loop-closure") loop_closure = false;
     else if (a == "--stats") stats = true;
     else if (a == "--png") png = true;
     else if (a == "-h" || a == "--help") { std::cout << kUsage; return 0; }
@@ -86,6 +89,7 @@ int main(int argc, char** argv) {
   }
   params.use_scan_matching = params.use_scan_matching && scan_matching;
   params.use_imu = simulated_imu;
+  params.loop_closure = params.loop_closure && loop_closure;
 
   const auto wall_start = std::chrono::steady_clock::now();
   slam::RobotLog log;
@@ -103,7 +107,9 @@ int main(int argc, char** argv) {
   if (!trajectory) return fail(trajectory_path + ": cannot write");
   trajectory << std::fixed << std::setprecision(6);
 
-  slam::RobotSlam robot(params, log.laser_in_base);
+  const std::unique_ptr<slam::FrontEnd> front_end = slam::makeFrontEnd(params, log.laser_in_base);
+  slam::FrontEnd& robot = *front_end;
+  std::vector<double> stamps;
   slam::SimulatedGyro gyro(slam::GyroNoiseModel{}, imu_seed);
   double first_stamp = 0, last_stamp = 0;
   size_t used = 0, matched = 0, gated = 0, imu_used = 0, jumps = 0;
@@ -137,16 +143,19 @@ int main(int argc, char** argv) {
     gated += step.gated;
     imu_used += step.imu_used;
     jumps += step.odometry_jump;
-    const mrslam::Pose2D& p = robot.filter().pose();
-    trajectory << r.scan.stamp << ' ' << p.x << ' ' << p.y << ' ' << p.yaw << '\n';
+    stamps.push_back(r.scan.stamp);
   }
+  // The final estimate of every scan's pose (loop closures move earlier ones).
+  const std::vector<mrslam::Pose2D> poses = robot.trajectory();
+  for (size_t i = 0; i < poses.size() && i < stamps.size(); ++i)
+    trajectory << stamps[i] << ' ' << poses[i].x << ' ' << poses[i].y << ' ' << poses[i].yaw << '\n';
   trajectory.close();
   if (!trajectory) return fail(trajectory_path + ": write failed");
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
   if (!map_path.empty()) {
     try {
-      mrslam::saveMap(robot.map().toGrid(), map_path, png ? ".png" : ".pgm");
+      mrslam::saveMap(robot.map(), map_path, png ? ".png" : ".pgm");
     } catch (const std::exception& e) {
       return fail(e.what());
     }
@@ -156,7 +165,8 @@ int main(int argc, char** argv) {
     getrusage(RUSAGE_SELF, &usage);
     const double duration = last_stamp - first_stamp;
     std::cout << std::fixed << std::setprecision(1) << "scans " << used << " matched " << matched << " gated " << gated
-              << " imu " << imu_used << " odometry_jumps " << jumps << " seconds " << std::setprecision(3) << seconds
+              << " imu " << imu_used << " odometry_jumps " << jumps << " loop_closures " << robot.stats().loop_accepted
+              << " seconds " << std::setprecision(3) << seconds
               << " scans_per_s " << std::setprecision(1) << used / seconds << " log_s " << duration
               << " x_realtime " << duration / seconds << " peak_mb " << usage.ru_maxrss / 1024.0 << "\n";
   }

@@ -7,13 +7,13 @@
 #include <variant>
 #include <vector>
 
-#include "mrslam/slam/robot_slam.h"
+#include "mrslam/slam/front_end.h"
 
 namespace mrslam::slam {
 
 struct NamedParam {
   std::string name;
-  std::variant<double*, int*, bool*> field;
+  std::variant<double*, int*, bool*, std::string*> field;
 };
 
 // Every tunable field of `p` with its name in config/robot.yaml.

@@ -1,13 +1,17 @@
-// Laser scan matching against a local map of recent scans (scan-to-map), with MRPT's ICP.
-// The local map holds the returns of the last `keyframes` key scans in the robot's map
-// frame; a scan becomes a key scan when the robot has moved or turned enough since the
-// last one, so the reference keeps its shape while the robot stands still.
+// Laser scan matching with MRPT's ICP.
+//   - PointCloudAligner: aligns points to a fixed reference cloud (used for loop closures
+//     against a submap, and by the local map below);
+//   - ScanToMapMatcher: scan-to-map matching against a local map holding the returns of the
+//     last `keyframes` key scans in the robot's map frame; a scan becomes a key scan when the
+//     robot has moved or turned enough since the last one, so the reference keeps its shape
+//     while the robot stands still.
 #pragma once
 
 #include <Eigen/Core>
 #include <deque>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mrslam/grid.h"
@@ -36,16 +40,31 @@ struct ScanMatcherParams {
 struct ScanMatch {
   bool ok = false;
   std::string reason;       // why not ok
-  Pose2D pose;              // base_link in the map frame
+  Pose2D pose;              // the points' frame in the reference's frame
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
   double goodness = 0.0;    // share of points that found a correspondence
   int iterations = 0;
 };
 
+class PointCloudAligner {
+ public:
+  explicit PointCloudAligner(const ScanMatcherParams& params);
+  ~PointCloudAligner();
+
+  void setReference(const std::vector<std::pair<float, float>>& reference);
+  bool empty() const;
+  // Aligns `points` (in their own frame) to the reference, starting from `guess`.
+  ScanMatch align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess) const;
+
+ private:
+  struct Impl;
+  ScanMatcherParams params_;
+  std::unique_ptr<Impl> impl_;
+};
+
 class ScanToMapMatcher {
  public:
   ScanToMapMatcher(const ScanMatcherParams& params, const Pose2D& laser_in_base);
-  ~ScanToMapMatcher();
 
   bool empty() const { return keys_.empty(); }
   // Aligns the scan to the local map, starting from `guess` (base_link in map).
@@ -54,13 +73,16 @@ class ScanToMapMatcher {
   // map is empty). Returns true when it was added.
   bool addIfKey(const LaserScan& scan, const Pose2D& pose);
   void clear();
+  // The returns of all key scans in the map frame, and a counter that changes with them.
+  std::vector<std::pair<float, float>> localPoints() const;
+  uint64_t version() const { return version_; }
 
  private:
-  struct Impl;
   ScanMatcherParams params_;
   Pose2D laser_in_base_;
   std::deque<std::pair<Pose2D, std::vector<std::pair<float, float>>>> keys_;  // pose, points in map
-  std::unique_ptr<Impl> impl_;
+  PointCloudAligner aligner_;
+  uint64_t version_ = 0;
 };
 
 }  // namespace mrslam::slam

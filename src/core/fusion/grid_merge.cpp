@@ -45,9 +45,20 @@ OccupancyGrid mergeGrids(const OccupancyGrid& reference, const std::vector<Place
     const Pose2D out_to_g = g.origin.inverse().compose(p.pose.inverse()).compose(out.origin);
     const double c = std::cos(out_to_g.yaw) / g.resolution, s = std::sin(out_to_g.yaw) / g.resolution;
     const double tx = out_to_g.x / g.resolution, ty = out_to_g.y / g.resolution;
-    for (int r = 0; r < out.height; ++r) {
+    // Only the output cells under this grid's bounding box can read from it.
+    int col0 = out.width, col1 = -1, row0 = out.height, row1 = -1;
+    const double w = g.width * g.resolution, h = g.height * g.resolution;
+    for (const auto& [gx, gy] : {std::pair{0.0, 0.0}, {w, 0.0}, {0.0, h}, {w, h}}) {
+      double x, y;  // the corner in out's grid frame (metres)
+      out.origin.inverse().compose(p.pose).compose(g.origin).apply(gx, gy, x, y);
+      col0 = std::min(col0, static_cast<int>(std::floor(x / res)) - 1), col1 = std::max(col1, static_cast<int>(std::ceil(x / res)) + 1);
+      row0 = std::min(row0, static_cast<int>(std::floor(y / res)) - 1), row1 = std::max(row1, static_cast<int>(std::ceil(y / res)) + 1);
+    }
+    col0 = std::max(col0, 0), row0 = std::max(row0, 0);
+    col1 = std::min(col1, out.width - 1), row1 = std::min(row1, out.height - 1);
+    for (int r = row0; r <= row1; ++r) {
       const double y = (r + 0.5) * res;
-      for (int col = 0; col < out.width; ++col) {
+      for (int col = col0; col <= col1; ++col) {
         const double x = (col + 0.5) * res;
         const double gx = c * x - s * y + tx, gy = s * x + c * y + ty;
         if (gx < 0 || gy < 0 || gx >= g.width || gy >= g.height) continue;

@@ -10,6 +10,8 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
   MotionNoise& m = p.motion;
   ScanMatcherParams& s = p.matcher;
   GridMapperParams& g = p.grid;
+  SeedParams& seed = p.seed;
+  GraphParams& graph = p.graph;
   return {
       {"odom_trans_per_trans", &m.trans_per_trans},
       {"odom_trans_per_rot", &m.trans_per_rot},
@@ -40,6 +42,45 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"map_free_update", &g.free_update},
       {"map_update_distance", &p.map_update_distance},
       {"map_update_angle", &p.map_update_angle},
+      {"seed_enabled", &seed.enabled},
+      {"seed_min_sigma_xy", &seed.min_sigma_xy},
+      {"seed_min_sigma_yaw", &seed.min_sigma_yaw},
+      {"seed_window_sigmas", &seed.window_sigmas},
+      {"seed_max_xy", &seed.max_xy},
+      {"seed_max_yaw", &seed.max_yaw},
+      {"seed_min_score", &seed.min_score},
+      {"seed_penalty_gain", &seed.penalty_gain},
+      {"seed_min_penalty", &seed.min_penalty},
+      {"seed_slip_margin", &seed.slip_margin},
+      {"seed_resolution", &seed.resolution},
+      {"seed_sigma", &seed.sigma},
+      {"loop_closure", &p.loop_closure},
+      {"graph_node_distance", &graph.node_distance},
+      {"graph_node_angle", &graph.node_angle},
+      {"graph_submap_nodes", &graph.submap_nodes},
+      {"graph_odometry_sigma_xy", &graph.odometry_sigma_xy},
+      {"graph_odometry_sigma_xy_per_m", &graph.odometry_sigma_xy_per_m},
+      {"graph_odometry_sigma_yaw", &graph.odometry_sigma_yaw},
+      {"graph_odometry_sigma_yaw_per_m", &graph.odometry_sigma_yaw_per_m},
+      {"graph_odometry_sigma_yaw_per_rad", &graph.odometry_sigma_yaw_per_rad},
+      {"loop_min_travel", &graph.loop_min_travel},
+      {"loop_window_xy", &graph.loop_window_xy},
+      {"loop_window_xy_per_m", &graph.loop_window_xy_per_m},
+      {"loop_window_xy_max", &graph.loop_window_xy_max},
+      {"loop_window_yaw", &graph.loop_window_yaw},
+      {"loop_window_yaw_per_m", &graph.loop_window_yaw_per_m},
+      {"loop_window_yaw_max", &graph.loop_window_yaw_max},
+      {"loop_max_candidates", &graph.loop_max_candidates},
+      {"loop_view_distance", &graph.loop_view_distance},
+      {"loop_resolution", &graph.loop_resolution},
+      {"loop_sigma", &graph.loop_sigma},
+      {"loop_min_score", &graph.loop_min_score},
+      {"loop_max_rival", &graph.loop_max_rival},
+      {"loop_sigma_xy", &graph.loop_sigma_xy},
+      {"loop_sigma_yaw", &graph.loop_sigma_yaw},
+      {"loop_outlier_chi2", &graph.loop_outlier_chi2},
+      {"graph_solver", &graph.solver},
+      {"graph_solver_iterations", &graph.solver_iterations},
   };
 }
 

@@ -4,34 +4,17 @@
 #include <mrpt/poses/CPosePDFGaussian.h>
 #include <mrpt/slam/CICP.h>
 
+#include "mrslam/slam/likelihood_grid.h"
+
 namespace mrslam::slam {
 
-namespace {
-
-// The scan's returns in the frame of `sensor_pose`, skipping any closer than `spacing` to the
-// last one kept: dense scanners (0.35 degree beams) give many more points than ICP needs, and
-// the local map's k-d tree is rebuilt with every key scan.
-std::vector<std::pair<float, float>> thinnedPoints(const LaserScan& scan, const Pose2D& sensor_pose, double spacing) {
-  std::vector<std::pair<float, float>> kept;
-  const float spacing2 = static_cast<float>(spacing * spacing);
-  float last_x = 1e30f, last_y = 1e30f;
-  for (const auto& [x, y] : scanPoints(scan, sensor_pose)) {
-    if ((x - last_x) * (x - last_x) + (y - last_y) * (y - last_y) < spacing2) continue;
-    kept.emplace_back(x, y);
-    last_x = x, last_y = y;
-  }
-  return kept;
-}
-
-}  // namespace
-
-struct ScanToMapMatcher::Impl {
-  mrpt::maps::CSimplePointsMap local_map;
+struct PointCloudAligner::Impl {
+  mrpt::maps::CSimplePointsMap reference;
   mrpt::slam::CICP icp;
 };
 
-ScanToMapMatcher::ScanToMapMatcher(const ScanMatcherParams& params, const Pose2D& laser_in_base)
-    : params_(params), laser_in_base_(laser_in_base), impl_(std::make_unique<Impl>()) {
+PointCloudAligner::PointCloudAligner(const ScanMatcherParams& params)
+    : params_(params), impl_(std::make_unique<Impl>()) {
   auto& o = impl_->icp.options;
   o.maxIterations = static_cast<unsigned>(params.max_iterations);
   o.thresholdDist = params.max_correspondence;
@@ -42,34 +25,37 @@ ScanToMapMatcher::ScanToMapMatcher(const ScanMatcherParams& params, const Pose2D
   o.onlyUniqueRobust = false;
 }
 
-ScanToMapMatcher::~ScanToMapMatcher() = default;
+PointCloudAligner::~PointCloudAligner() = default;
 
-void ScanToMapMatcher::clear() {
-  keys_.clear();
-  impl_->local_map.clear();
+void PointCloudAligner::setReference(const std::vector<std::pair<float, float>>& reference) {
+  auto& map = impl_->reference;
+  map.clear();
+  for (const auto& [x, y] : reference) map.insertPointFast(x, y, 0.0f);
+  map.mark_as_modified();
 }
 
-ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess) const {
+bool PointCloudAligner::empty() const { return impl_->reference.empty(); }
+
+ScanMatch PointCloudAligner::align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess) const {
   ScanMatch result;
-  if (keys_.empty()) {
-    result.reason = "empty local map";
+  if (empty()) {
+    result.reason = "empty reference";
     return result;
   }
   mrpt::maps::CSimplePointsMap current;
-  for (const auto& [x, y] : thinnedPoints(scan, laser_in_base_, params_.min_point_spacing))
-    current.insertPointFast(x, y, 0.0f);
+  for (const auto& [x, y] : points) current.insertPointFast(x, y, 0.0f);
   if (current.size() < 20) {
     result.reason = "fewer than 20 valid returns";
     return result;
   }
   mrpt::slam::CICP::TReturnInfo info;
-  // The pairing decimation depends on this scan. (match() is const to callers but tunes the
-  // ICP object it owns: one matcher serves one robot, from one thread.)
+  // The pairing decimation depends on this scan. (align() is const to callers but tunes the
+  // ICP object it owns: one aligner serves one thread.)
   impl_->icp.options.corresponding_points_decimation =
       params_.correspondence_points > 0
           ? static_cast<uint32_t>(std::max<size_t>(1, (current.size() + params_.correspondence_points - 1) / params_.correspondence_points))
           : 1;
-  const auto pdf = impl_->icp.Align(&impl_->local_map, &current, mrpt::poses::CPose2D(guess.x, guess.y, guess.yaw), info);
+  const auto pdf = impl_->icp.Align(&impl_->reference, &current, mrpt::poses::CPose2D(guess.x, guess.y, guess.yaw), info);
   mrpt::poses::CPosePDFGaussian gaussian;
   gaussian.copyFrom(*pdf);
   result.goodness = info.goodness;
@@ -92,6 +78,31 @@ ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess) co
   return result;
 }
 
+ScanToMapMatcher::ScanToMapMatcher(const ScanMatcherParams& params, const Pose2D& laser_in_base)
+    : params_(params), laser_in_base_(laser_in_base), aligner_(params) {}
+
+void ScanToMapMatcher::clear() {
+  keys_.clear();
+  aligner_.setReference({});
+  ++version_;
+}
+
+std::vector<std::pair<float, float>> ScanToMapMatcher::localPoints() const {
+  std::vector<std::pair<float, float>> points;
+  for (const auto& key : keys_) points.insert(points.end(), key.second.begin(), key.second.end());
+  return points;
+}
+
+ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess) const {
+  if (keys_.empty()) {
+    ScanMatch result;
+    result.reason = "empty local map";
+    return result;
+  }
+  // Dense scanners (0.35 degree beams) give many more points than ICP needs.
+  return aligner_.align(thinPoints(scanPoints(scan, laser_in_base_), params_.min_point_spacing), guess);
+}
+
 bool ScanToMapMatcher::addIfKey(const LaserScan& scan, const Pose2D& pose) {
   if (!keys_.empty()) {
     const Pose2D& last = keys_.back().first;
@@ -99,15 +110,12 @@ bool ScanToMapMatcher::addIfKey(const LaserScan& scan, const Pose2D& pose) {
     const bool turned = std::abs(Pose2D::normalizeAngle(pose.yaw - last.yaw)) >= params_.keyframe_angle;
     if (!moved && !turned) return false;
   }
-  auto points = thinnedPoints(scan, pose.compose(laser_in_base_), params_.min_point_spacing);
+  auto points = thinPoints(scanPoints(scan, pose.compose(laser_in_base_)), params_.min_point_spacing);
   if (points.size() < 20) return false;
   keys_.emplace_back(pose, std::move(points));
   while (static_cast<int>(keys_.size()) > std::max(1, params_.keyframes)) keys_.pop_front();
-  auto& map = impl_->local_map;
-  map.clear();
-  for (const auto& key : keys_)
-    for (const auto& p : key.second) map.insertPointFast(p.first, p.second, 0.0f);
-  map.mark_as_modified();
+  aligner_.setReference(localPoints());
+  ++version_;
   return true;
 }
 

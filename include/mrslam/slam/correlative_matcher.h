@@ -1,0 +1,66 @@
+// Correlative scan matching over a window of poses (Olson 2009, "Real-time correlative scan
+// matching"), searched exhaustively but fast by branch and bound over max-pooled copies of
+// the likelihood grid (the scheme of Cartographer's fast correlative scan matcher): the
+// pose in the window under which the scan's points score highest on the grid, found exactly
+// at the grid's resolution and an angular step that moves the farthest point by one cell.
+//
+// Used where ICP alone has too small a basin: to seed the local tracker when odometry is poor
+// or scans are far apart, and to find loop closures against older parts of the map.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "mrslam/grid.h"
+#include "mrslam/slam/likelihood_grid.h"
+
+namespace mrslam::slam {
+
+struct SearchWindow {
+  Pose2D center;      // the scan frame's pose in the grid's frame at the window's centre
+  double xy = 0.5;    // m either way in x and y
+  double yaw = 0.35;  // rad either way
+  // Optional prior around the centre (as Karto weighs its correlative response): a pose's
+  // score is multiplied by max(min_penalty, 1 - gain * (d / sigma_xy)^2) and by the same in
+  // yaw, so that where the scan alone cannot tell (along a corridor) the centre wins. Off
+  // while sigma_xy (sigma_yaw) is 0.
+  double sigma_xy = 0, sigma_yaw = 0;
+  double penalty_gain = 0.05, min_penalty = 0.5;
+};
+
+struct CorrelativeMatch {
+  bool found = false;  // a pose scoring at least min_score exists in the window
+  Pose2D pose;         // best pose (scan frame in the grid's frame)
+  double score = 0;    // mean likelihood of the scan's points at that pose, 0..1, times the prior
+};
+
+class CorrelativeMatcher {
+ public:
+  // Precomputes `levels` max-pooled copies of the grid (level h pools 2^h x 2^h cells).
+  CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> grid, int levels = 6);
+
+  // The best pose in the window for `points` (in the scan frame); not found when no pose
+  // scores min_score. With `excluded`, poses within `exclude_xy` m and `exclude_yaw` rad of it
+  // are not candidates: the best rival elsewhere in the window (how ambiguous the match is).
+  CorrelativeMatch match(const Points2& points, const SearchWindow& window, double min_score,
+                         const Pose2D* excluded = nullptr, double exclude_xy = 0, double exclude_yaw = 0) const;
+
+  const LikelihoodGrid& grid() const { return *grid_; }
+
+ private:
+  struct Level {
+    int offset = 0;  // cell (0, 0) of this level is cell (-offset, -offset) of the grid
+    int width = 0, height = 0;
+    std::vector<uint8_t> values;
+    int at(int cx, int cy) const {
+      cx += offset, cy += offset;
+      return (cx < 0 || cy < 0 || cx >= width || cy >= height) ? 0 : values[static_cast<size_t>(cy) * width + cx];
+    }
+  };
+  struct Candidate;
+
+  std::shared_ptr<const LikelihoodGrid> grid_;
+  std::vector<Level> levels_;
+};
+
+}  // namespace mrslam::slam

@@ -1,0 +1,154 @@
+// One robot's front end as the nodelets, mrslam_slam_log and the tests see it: scans,
+// odometry and gyro in; the robot's pose, its map and the trajectory out. Two implementations
+// sit behind this seam:
+//   - the paper's cascaded EKF alone (ekf_front_end.h): odometry -> gyro -> scan matching
+//     against a local map, the grid built along the filtered poses;
+//   - the pose graph (graph_slam.h): the same cascade as the local tracker and the odometry
+//     of a graph of key scans, loop closures found by correlative matching against older
+//     submaps, optimised by Ceres; the map is re-composed from submaps when poses move.
+// makeFrontEnd picks one from the parameters (loop_closure).
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mrslam/grid.h"
+#include "mrslam/slam/ekf2d.h"
+#include "mrslam/slam/grid_mapper.h"
+#include "mrslam/slam/laser_scan.h"
+#include "mrslam/slam/scan_matcher.h"
+
+namespace mrslam::slam {
+
+// The local tracker's wide basin: when the prediction is uncertain, a correlative search over
+// a window of poses seeds ICP (correlative_matcher.h).
+struct SeedParams {
+  bool enabled = true;
+  double min_sigma_xy = 0.05;    // m: below this predicted uncertainty ICP alone is trusted...
+  double min_sigma_yaw = 0.035;  // rad: ...and below this (2 degrees)
+  double window_sigmas = 3.0;    // the window spans this many predicted sigmas either way...
+  double max_xy = 1.0;           // m: ...at most this far
+  double max_yaw = 0.52;         // rad: ...and this much turn (30 degrees)
+  double min_score = 0.3;        // a seed scoring less is not used (ICP starts from the prediction)
+  double penalty_gain = 0.05;    // prior around the prediction: a pose k predicted sigmas away
+  double min_penalty = 0.5;      // scores x max(min_penalty, 1 - gain k^2), so where the scan
+                                 // cannot tell (along a corridor) the prediction wins
+  double slip_margin = 0.1;      // a match the EKF gate refuses is still taken when the scan
+                                 // scores this much higher there than at the prediction
+  double resolution = 0.05;      // m, of the likelihood grid
+  double sigma = 0.05;           // m, likelihood kernel
+};
+
+// The pose graph back end (graph_slam.h).
+struct GraphParams {
+  double node_distance = 0.25;   // m moved before the next scan becomes a graph node...
+  double node_angle = 0.17;      // rad: ...or this much turn (10 degrees)
+  int submap_nodes = 25;         // nodes per submap (loop closures match against finished submaps)
+  // Noise of the tracker's motion between consecutive nodes (standard deviations).
+  double odometry_sigma_xy = 0.02;       // m, plus...
+  double odometry_sigma_xy_per_m = 0.02; // ...m per m travelled
+  double odometry_sigma_yaw = 0.003;     // rad, plus...
+  double odometry_sigma_yaw_per_m = 0.005;  // ...rad per m travelled, plus...
+  double odometry_sigma_yaw_per_rad = 0.01; // ...rad per rad turned
+  // Loop closure search: a window around the predicted pose that grows with the distance
+  // travelled since the last closure (a stand-in for the pose's uncertainty).
+  double loop_min_travel = 10.0;         // m: only submaps finished at least this far back
+  double loop_window_xy = 0.5;           // m either way, plus...
+  double loop_window_xy_per_m = 0.05;    // ...m per m travelled since the last closure...
+  double loop_window_xy_max = 5.0;       // ...at most
+  double loop_window_yaw = 0.087;        // rad (5 degrees), plus...
+  double loop_window_yaw_per_m = 0.005;  // ...rad per m travelled...
+  double loop_window_yaw_max = 0.52;     // ...at most (30 degrees)
+  int loop_max_candidates = 3;           // nearest submaps tried per node
+  double loop_view_distance = 4.0;       // m: submaps whose poses are this far beyond the window
+                                         // still share what the node sees
+  double loop_resolution = 0.05;         // m, of the submaps' likelihood grids
+  double loop_sigma = 0.05;              // m, likelihood kernel
+  double loop_min_score = 0.55;          // mean likelihood of the node's points at the match
+  double loop_max_rival = 0.9;           // reject when a pose elsewhere (beyond 1 m / 5 deg)
+                                         // scores this share of the best: ambiguous
+  double loop_sigma_xy = 0.05;           // m: noise of a loop closure
+  double loop_sigma_yaw = 0.01;          // rad
+  double loop_outlier_chi2 = 25.0;       // a closure whose error at the optimum exceeds this
+                                         // (squared sigmas) is dropped as wrong
+  std::string solver = "ceres";          // or "mrpt"
+  int solver_iterations = 50;
+};
+
+struct RobotSlamParams {
+  MotionNoise motion;
+  ScanMatcherParams matcher;
+  GridMapperParams grid;
+  SeedParams seed;
+  GraphParams graph;
+  bool loop_closure = true;       // false: the paper's EKF front end alone
+  bool use_scan_matching = true;
+  bool use_imu = true;            // gyro updates are used when they arrive
+  double map_update_distance = 0.0;  // m moved before a scan is inserted into the grid (0: every scan)
+  double map_update_angle = 0.0;     // rad turned before a scan is inserted into the grid
+  // An odometry increment longer than max_odometry_jump (+ max_odometry_speed x the time
+  // since the previous scan, when the time stamps are usable) is doubted: the tracker searches
+  // around the odometry's prediction and around the previous pose and keeps the better match.
+  double max_odometry_jump = 0.5;   // m
+  double max_odometry_speed = 2.0;  // m/s
+};
+
+struct ScanStep {
+  bool used = false;            // false: the scan was rejected (reason says why)
+  std::string reason;
+  bool matched = false;         // scan matching accepted by the EKF
+  bool gated = false;           // scan match rejected by the Mahalanobis gate
+  bool imu_used = false;
+  bool seeded = false;          // a correlative search seeded ICP
+  bool odometry_doubted = false;  // the increment was long enough to be a jump
+  bool odometry_jump = false;     // ...and the scan agreed better with no motion
+  bool odometry_slipped = false;  // a gated match won on the scan's evidence
+  bool new_node = false;        // the scan became a pose-graph node
+  int loop_closures = 0;        // loop closures accepted at this scan
+  bool map_moved = false;       // an optimisation moved the map
+  ScanMatch match;
+};
+
+// What a run did, for the summary every tool prints and for diagnostics.
+struct FrontEndStats {
+  size_t scans = 0, used = 0, rejected = 0, matched = 0, gated = 0, seeded = 0;
+  size_t odometry_doubted = 0, odometry_jumps = 0, odometry_slips = 0;
+  size_t nodes = 0, submaps = 0;
+  size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
+  size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;
+  size_t optimizations = 0, optimization_failures = 0;
+  std::string last_problem;
+};
+
+class FrontEnd {
+ public:
+  virtual ~FrontEnd() = default;
+  // Odometry increment (robot frame) since the previous call; accumulated until the next scan.
+  virtual void addOdometry(const Pose2D& increment) = 0;
+  // Gyro yaw change (rad) over an interval and its variance; accumulated until the next scan.
+  virtual void addGyro(double yaw_increment, double variance) = 0;
+  // Runs one scan through the front end.
+  virtual ScanStep processScan(const LaserScan& scan) = 0;
+  // Forgets everything (bag restarted, time went backwards).
+  virtual void reset() = 0;
+  // Whether scan time stamps mean anything (false: equal, too coarse or not increasing). When
+  // they do not, no rule uses the time between scans.
+  virtual void setTimeUsable(bool usable) = 0;
+
+  // The robot's current pose (base_link in the map frame) and its covariance.
+  virtual Pose2D pose() const = 0;
+  virtual Eigen::Matrix3d covariance() const = 0;
+  // The best estimate of the pose of every scan used so far, in order (moves when loops close).
+  virtual std::vector<Pose2D> trajectory() const = 0;
+  // The map; its version changes whenever its content changes (new scans or moved poses).
+  virtual OccupancyGrid map() const = 0;
+  virtual uint64_t mapVersion() const = 0;
+  virtual FrontEndStats stats() const = 0;
+  virtual std::string name() const = 0;
+};
+
+std::unique_ptr<FrontEnd> makeFrontEnd(const RobotSlamParams& params, const Pose2D& laser_in_base);
+
+}  // namespace mrslam::slam

@@ -1,0 +1,89 @@
+// One robot's SLAM with a pose graph (the default front end).
+//
+// The paper's cascaded EKF stays the local tracker; its poses are the odometry of a graph whose
+// nodes are key scans (every node_distance / node_angle). Consecutive nodes are joined by the
+// tracker's motion; every new node is searched against older finished submaps (loop_closer.h)
+// and each closure found becomes an edge with a robust loss. The graph is optimised (Ceres by
+// default) whenever closures are added; a closure whose error at the optimum exceeds
+// loop_outlier_chi2 is dropped and the graph optimised again, so one wrong closure cannot wreck
+// the map. A failed optimisation keeps the last good poses and says why (stats().last_problem).
+//
+// The map: scans go into submaps (submap.h) in their anchor node's frame; the map is the
+// submaps composed at their anchors' optimised poses, so a correction moves submaps rather than
+// re-casting every ray. The pose of the robot and of every scan follow the optimised nodes.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "mrslam/slam/front_end.h"
+#include "mrslam/slam/local_tracker.h"
+#include "mrslam/slam/loop_closer.h"
+#include "mrslam/slam/pose_graph.h"
+#include "mrslam/slam/submap.h"
+
+namespace mrslam::slam {
+
+class GraphSlam : public FrontEnd {
+ public:
+  GraphSlam(const RobotSlamParams& params, const Pose2D& laser_in_base);
+
+  void addOdometry(const Pose2D& increment) override { tracker_.addOdometry(increment); }
+  void addGyro(double yaw_increment, double variance) override { tracker_.addGyro(yaw_increment, variance); }
+  ScanStep processScan(const LaserScan& scan) override;
+  void reset() override;
+  void setTimeUsable(bool usable) override { tracker_.setTimeUsable(usable); }
+
+  Pose2D pose() const override;
+  Eigen::Matrix3d covariance() const override { return tracker_.filter().covariance(); }
+  std::vector<Pose2D> trajectory() const override;
+  OccupancyGrid map() const override;
+  uint64_t mapVersion() const override { return map_version_; }
+  FrontEndStats stats() const override { return stats_; }
+  std::string name() const override { return "graph"; }
+
+  // For tests and tools: the graph as it stands.
+  const std::vector<Pose2D>& nodePoses() const { return poses_; }
+  const std::vector<PoseGraphEdge>& edges() const { return edges_; }
+  // Adds a loop-closure edge as if the search had found it, and optimises (tests inject
+  // false closures this way).
+  void addLoopClosure(int from_node, int to_node, const Pose2D& measurement);
+
+ private:
+  struct Node {
+    Pose2D tracker_pose;  // in the tracker's frame
+    double travel = 0;    // m along the trajectory
+    Points2 points;       // returns in base_link, thinned
+  };
+  struct ScanRef {        // a scan's pose is poses_[node] o offset
+    int node = 0;
+    Pose2D offset;
+  };
+
+  bool isNewNode(const Pose2D& tracker_pose) const;
+  void addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step);
+  Submap& activeSubmap();
+  void closeLoops(int node, ScanStep& step);
+  PoseGraphEdge odometryEdge(int from, int to) const;
+  PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
+  // Optimises; drops closures the optimum disagrees with. True when the poses moved.
+  bool optimize();
+
+  RobotSlamParams params_;
+  LocalTracker tracker_;
+  LoopCloser closer_;
+  std::unique_ptr<PoseGraphSolver> solver_;
+  std::vector<Node> nodes_;
+  std::vector<Pose2D> poses_;  // optimised node poses in the map frame
+  std::vector<PoseGraphEdge> edges_;
+  std::vector<std::unique_ptr<Submap>> submaps_;
+  std::vector<ScanRef> scans_;
+  double travel_ = 0;
+  Pose2D last_tracker_pose_;
+  uint64_t map_version_ = 0;
+  FrontEndStats stats_;
+  mutable OccupancyGrid map_cache_;
+  mutable uint64_t map_cache_version_ = ~0ull;
+};
+
+}  // namespace mrslam::slam

@@ -1,0 +1,54 @@
+// The paper's cascaded EKF as the local tracker of one robot: wheel odometry predicts, a gyro
+// corrects the yaw increment, ICP against a local map of recent key scans corrects the pose.
+// Its wide basin: when the prediction is uncertain (poor odometry, scans far apart) or the
+// odometry increment is long enough to be a jump, a correlative search over a window of poses
+// seeds ICP; a doubted increment is searched around both the odometry's prediction and the
+// previous pose, and the better match decides whether the robot moved.
+#pragma once
+
+#include <memory>
+#include <optional>
+
+#include "mrslam/slam/correlative_matcher.h"
+#include "mrslam/slam/front_end.h"
+
+namespace mrslam::slam {
+
+class LocalTracker {
+ public:
+  LocalTracker(const RobotSlamParams& params, const Pose2D& laser_in_base);
+
+  void reset();
+  void addOdometry(const Pose2D& increment);
+  void addGyro(double yaw_increment, double variance);
+  void setTimeUsable(bool usable) { time_usable_ = usable; }
+  // One scan through the cascade; the local map takes it as a key scan when it moved enough.
+  ScanStep track(const LaserScan& scan);
+
+  const Ekf2D& filter() const { return ekf_; }
+  const Pose2D& laserInBase() const { return laser_in_base_; }
+  size_t scansTracked() const { return scans_; }
+
+ private:
+  // The best correlative match in a window around `center`, on the local map.
+  CorrelativeMatch seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw, double sigma_xy,
+                             double sigma_yaw);
+  bool doubted(const Pose2D& increment, double stamp) const;
+  // Whether the scan fits the local map clearly better at `match` than at `prediction`.
+  bool scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction);
+
+  RobotSlamParams params_;
+  Pose2D laser_in_base_;
+  Ekf2D ekf_;
+  ScanToMapMatcher matcher_;
+  std::unique_ptr<CorrelativeMatcher> seed_matcher_;  // of the local map, rebuilt when it changed
+  uint64_t seed_version_ = 0;
+  Pose2D odometry_;  // accumulated since the last scan
+  double gyro_yaw_ = 0, gyro_var_ = 0;
+  bool have_gyro_ = false;
+  bool time_usable_ = true;
+  size_t scans_ = 0;
+  double last_stamp_ = 0;
+};
+
+}  // namespace mrslam::slam

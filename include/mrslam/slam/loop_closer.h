@@ -1,0 +1,71 @@
+// The loop-closure search (ours to own): a new graph node against older, finished submaps.
+//
+// For each submap near the node's predicted pose (nearest first, those finished at least
+// loop_min_travel back along the trajectory), a correlative search over a window that grows
+// with the distance travelled since the last closure; a match must score loop_min_score, must
+// beat every rival pose elsewhere in the window clearly (loop_max_rival: corridors and
+// repeated rooms give several good poses), and must survive ICP refinement against the
+// submap's points. What passes becomes a loop-closure edge; the graph may still drop it when
+// the optimum disagrees (graph_slam.h).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "mrslam/slam/correlative_matcher.h"
+#include "mrslam/slam/front_end.h"
+#include "mrslam/slam/scan_matcher.h"
+#include "mrslam/slam/submap.h"
+
+namespace mrslam::slam {
+
+struct LoopClosure {
+  int submap = 0;       // index of the submap matched
+  Pose2D pose;          // the node's pose in the submap's anchor frame
+  double score = 0;     // correlative score of the refined pose
+  double rival = 0;     // best score elsewhere in the window (0: none above the floor)
+};
+
+// Where to search: the node's pose and the submaps' anchor poses in the map frame, how far the
+// robot travelled, and how far each node is from this one through the graph (pose_graph.h:
+// graphDistances), which sizes the window for each submap.
+struct LoopQuery {
+  Points2 points;        // the node's returns in base_link, thinned
+  Pose2D pose;           // predicted pose of the node in the map frame
+  double travel = 0;
+  std::vector<double> graph_distance;  // per node, m
+};
+
+class LoopCloser {
+ public:
+  LoopCloser(const GraphParams& params, const ScanMatcherParams& icp);
+
+  // Closures for the node (at most loop_max_candidates submaps are tried); counts attempts and
+  // rejections into `stats`.
+  std::vector<LoopClosure> search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
+                                  const std::vector<Pose2D>& anchor_poses, FrontEndStats& stats);
+  void clear() { cache_.clear(); }
+  // The search window for poses `distance` m apart through the graph: (xy m, yaw rad).
+  std::pair<double, double> window(double distance) const;
+  // The graph distance beyond which the window no longer grows.
+  double saturationDistance() const;
+
+ private:
+  struct Matchers {  // built once per submap, kept for the most recently used
+    std::unique_ptr<CorrelativeMatcher> correlative;
+    std::unique_ptr<PointCloudAligner> icp;
+    uint64_t used = 0;
+  };
+  const Matchers& matchersOf(int index, const Submap& submap);
+  std::optional<LoopClosure> tryClosure(const LoopQuery& query, int index, const Submap& submap,
+                                        const Pose2D& anchor_pose, double distance, FrontEndStats& stats);
+
+  GraphParams params_;
+  ScanMatcherParams icp_params_;
+  std::map<int, Matchers> cache_;
+  uint64_t clock_ = 0;
+};
+
+}  // namespace mrslam::slam

@@ -1,0 +1,168 @@
+#include "mrslam/slam/correlative_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mrslam::slam {
+
+namespace {
+
+// The angular step that moves a point at `range` metres by about one cell.
+double angularStep(double range, double resolution) {
+  const double c = 1.0 - resolution * resolution / (2.0 * range * range);
+  return std::acos(std::clamp(c, -1.0, 1.0));
+}
+
+// A robust "far" range of the scan: most points within it (a few stray far returns would
+// otherwise make the angular step needlessly fine).
+double farRange(const Points2& points) {
+  std::vector<float> ranges;
+  ranges.reserve(points.size());
+  for (const auto& [x, y] : points) ranges.push_back(std::hypot(x, y));
+  const size_t k = ranges.size() * 95 / 100;
+  std::nth_element(ranges.begin(), ranges.begin() + std::min(k, ranges.size() - 1), ranges.end());
+  return std::clamp<double>(ranges[std::min(k, ranges.size() - 1)], 1.0, 15.0);
+}
+
+}  // namespace
+
+struct CorrelativeMatcher::Candidate {
+  int rotation = 0;  // index into the rotated scans
+  int dx = 0, dy = 0;  // offset in cells of the candidate's lowest corner
+  float score = 0;
+};
+
+CorrelativeMatcher::CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> grid, int levels) : grid_(std::move(grid)) {
+  Level base;
+  base.width = grid_->width();
+  base.height = grid_->height();
+  base.values = grid_->values();
+  levels_.push_back(std::move(base));
+  // Level h holds, at (x, y), the max of level 0 over [x, x + 2^h) x [y, y + 2^h); it also
+  // covers x, y down to -(2^h - 1), where a window still reaches into the grid.
+  for (int h = 1; h < std::max(1, levels); ++h) {
+    const Level& prev = levels_.back();
+    const int step = 1 << (h - 1);
+    Level next;
+    next.offset = (1 << h) - 1;
+    next.width = grid_->width() + next.offset;
+    next.height = grid_->height() + next.offset;
+    std::vector<uint8_t> half(static_cast<size_t>(next.width) * prev.height);  // max along x, prev's rows
+    for (int y = 0; y < prev.height; ++y)
+      for (int x = 0; x < next.width; ++x) {
+        const int gx = x - next.offset, gy = y - prev.offset;
+        half[static_cast<size_t>(y) * next.width + x] = static_cast<uint8_t>(std::max(prev.at(gx, gy), prev.at(gx + step, gy)));
+      }
+    next.values.resize(static_cast<size_t>(next.width) * next.height);
+    auto half_at = [&](int x, int gy) {  // gy in grid coordinates
+      const int y = gy + prev.offset;
+      return (y < 0 || y >= prev.height) ? uint8_t{0} : half[static_cast<size_t>(y) * next.width + x];
+    };
+    for (int y = 0; y < next.height; ++y) {
+      const int gy = y - next.offset;
+      for (int x = 0; x < next.width; ++x)
+        next.values[static_cast<size_t>(y) * next.width + x] = std::max(half_at(x, gy), half_at(x, gy + step));
+    }
+    levels_.push_back(std::move(next));
+  }
+}
+
+CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWindow& window, double min_score,
+                                           const Pose2D* excluded, double exclude_xy, double exclude_yaw) const {
+  CorrelativeMatch result;
+  if (points.empty() || grid_->empty()) return result;
+  const double res = grid_->resolution();
+  const double dtheta = angularStep(farRange(points), res);
+  const int turns = static_cast<int>(std::ceil(window.yaw / dtheta));
+  const int reach = static_cast<int>(std::ceil(window.xy / res));
+
+  // The scan at every angle of the window, as cells of the grid with the window's centre shift.
+  std::vector<double> angles;
+  std::vector<std::vector<std::pair<int, int>>> rotated;
+  for (int k = -turns; k <= turns; ++k) {
+    const double theta = window.center.yaw + k * dtheta;
+    const double c = std::cos(theta), s = std::sin(theta);
+    std::vector<std::pair<int, int>> cells;
+    cells.reserve(points.size());
+    for (const auto& [px, py] : points) {
+      const double x = window.center.x + c * px - s * py, y = window.center.y + s * px + c * py;
+      cells.emplace_back(static_cast<int>(std::floor((x - grid_->originX()) / res)),
+                         static_cast<int>(std::floor((y - grid_->originY()) / res)));
+    }
+    angles.push_back(theta);
+    rotated.push_back(std::move(cells));
+  }
+  const double n = 255.0 * static_cast<double>(points.size());
+  auto score = [&](const Candidate& c, int h) {
+    const Level& level = levels_[h];
+    int64_t sum = 0;
+    for (const auto& [cx, cy] : rotated[c.rotation]) sum += level.at(cx + c.dx, cy + c.dy);
+    return static_cast<float>(sum / n);
+  };
+  // The prior's factor for a yaw offset, and its largest value over the translations of a
+  // candidate covering offsets [dx, dx + size) x [dy, dy + size) (its nearest point to 0).
+  auto factor = [&](double offset, double sigma) {
+    if (!(sigma > 0)) return 1.0;
+    return std::max(window.min_penalty, 1.0 - window.penalty_gain * (offset * offset) / (sigma * sigma));
+  };
+  std::vector<double> yaw_factor;
+  for (double theta : angles) yaw_factor.push_back(factor(Pose2D::normalizeAngle(theta - window.center.yaw), window.sigma_yaw));
+  auto prior = [&](const Candidate& c, int size) {
+    auto nearest = [size](int lo) { return lo > 0 ? lo : (lo + size - 1 < 0 ? lo + size - 1 : 0); };
+    const double d = res * std::hypot(nearest(c.dx), nearest(c.dy));
+    return yaw_factor[c.rotation] * factor(d, window.sigma_xy);
+  };
+  auto is_excluded = [&](const Candidate& c) {
+    if (!excluded) return false;
+    const double x = window.center.x + c.dx * res - excluded->x, y = window.center.y + c.dy * res - excluded->y;
+    return std::hypot(x, y) < exclude_xy &&
+           std::abs(Pose2D::normalizeAngle(angles[c.rotation] - excluded->yaw)) < exclude_yaw;
+  };
+
+  // The coarsest level whose cells still split the window into a few candidates per angle.
+  int top = 0;
+  while (top + 1 < static_cast<int>(levels_.size()) && (1 << (top + 1)) <= 2 * reach + 1) ++top;
+  std::vector<Candidate> start;
+  for (int r = 0; r < static_cast<int>(rotated.size()); ++r)
+    for (int dx = -reach; dx <= reach; dx += 1 << top)
+      for (int dy = -reach; dy <= reach; dy += 1 << top) {
+        Candidate c{r, dx, dy, 0};
+        c.score = static_cast<float>(score(c, top) * prior(c, 1 << top));
+        start.push_back(c);
+      }
+
+  float best = static_cast<float>(min_score);
+  Candidate best_candidate;
+  bool found = false;
+  // Depth first, best first: a candidate's score at level h bounds every pose it covers.
+  auto descend = [&](auto&& self, std::vector<Candidate>& candidates, int h) -> void {
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+    for (const Candidate& c : candidates) {
+      if (c.score < best || (found && c.score == best)) return;
+      if (h == 0) {
+        if (is_excluded(c)) continue;
+        best = c.score, best_candidate = c, found = true;
+        continue;
+      }
+      const int half = 1 << (h - 1);
+      std::vector<Candidate> children;
+      for (int ox : {0, half})
+        for (int oy : {0, half}) {
+          Candidate child{c.rotation, c.dx + ox, c.dy + oy, 0};
+          if (child.dx > reach || child.dy > reach) continue;
+          child.score = static_cast<float>(score(child, h - 1) * prior(child, half));
+          children.push_back(child);
+        }
+      self(self, children, h - 1);
+    }
+  };
+  descend(descend, start, top);
+  if (!found) return result;
+  result.found = true;
+  result.score = best;
+  result.pose = {window.center.x + best_candidate.dx * res, window.center.y + best_candidate.dy * res,
+                 Pose2D::normalizeAngle(angles[best_candidate.rotation])};
+  return result;
+}
+
+}  // namespace mrslam::slam

@@ -1,0 +1,186 @@
+#include "mrslam/slam/graph_slam.h"
+
+#include <algorithm>
+
+#include "mrslam/fusion/grid_merge.h"
+#include "mrslam/slam/ekf_front_end.h"
+
+namespace mrslam::slam {
+
+namespace {
+constexpr int kMaxOutlierRounds = 3;  // optimise, drop the closures the optimum disagrees with, repeat
+}  // namespace
+
+GraphSlam::GraphSlam(const RobotSlamParams& params, const Pose2D& laser_in_base)
+    : params_(params),
+      tracker_(params, laser_in_base),
+      closer_(params.graph, params.matcher),
+      solver_(makePoseGraphSolver(params.graph.solver, PoseGraphSolverParams{params.graph.solver_iterations, 1.0})) {}
+
+void GraphSlam::reset() {
+  tracker_.reset();
+  closer_.clear();
+  nodes_.clear();
+  poses_.clear();
+  edges_.clear();
+  submaps_.clear();
+  scans_.clear();
+  travel_ = 0;
+  last_tracker_pose_ = Pose2D{};
+  stats_ = FrontEndStats{};
+  ++map_version_;
+}
+
+ScanStep GraphSlam::processScan(const LaserScan& scan) {
+  ScanStep step = tracker_.track(scan);
+  countStep(step, stats_);
+  if (!step.used) return step;
+  const Pose2D tracker_pose = tracker_.filter().pose();
+  if (!nodes_.empty())
+    travel_ += std::hypot(tracker_pose.x - last_tracker_pose_.x, tracker_pose.y - last_tracker_pose_.y);
+  last_tracker_pose_ = tracker_pose;
+  if (isNewNode(tracker_pose)) addNode(scan, tracker_pose, step);
+  const Node& node = nodes_.back();
+  const Pose2D offset = node.tracker_pose.inverse().compose(tracker_pose);
+  Submap& submap = activeSubmap();
+  const Pose2D in_anchor = nodes_[submap.anchor()].tracker_pose.inverse().compose(tracker_pose);
+  submap.insert(scan, thinPoints(scanPoints(scan, tracker_.laserInBase()), params_.graph.loop_resolution), in_anchor);
+  scans_.push_back({static_cast<int>(nodes_.size()) - 1, offset});
+  ++map_version_;
+  return step;
+}
+
+bool GraphSlam::isNewNode(const Pose2D& tracker_pose) const {
+  if (nodes_.empty()) return true;
+  const Pose2D& last = nodes_.back().tracker_pose;
+  return std::hypot(tracker_pose.x - last.x, tracker_pose.y - last.y) >= params_.graph.node_distance ||
+         std::abs(Pose2D::normalizeAngle(tracker_pose.yaw - last.yaw)) >= params_.graph.node_angle;
+}
+
+Submap& GraphSlam::activeSubmap() { return *submaps_.back(); }
+
+void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step) {
+  const int n = static_cast<int>(nodes_.size());
+  Node node{tracker_pose, travel_, thinPoints(scanPoints(scan, tracker_.laserInBase()), params_.graph.loop_resolution)};
+  if (n == 0) {
+    poses_.push_back(tracker_pose);
+  } else {
+    const Pose2D motion = nodes_.back().tracker_pose.inverse().compose(tracker_pose);
+    poses_.push_back(poses_.back().compose(motion));
+  }
+  nodes_.push_back(std::move(node));
+  if (n > 0) edges_.push_back(odometryEdge(n - 1, n));
+  if (submaps_.empty() || activeSubmap().nodes() >= params_.graph.submap_nodes) {
+    if (!submaps_.empty()) activeSubmap().finish(travel_);
+    submaps_.push_back(std::make_unique<Submap>(n, params_.grid, tracker_.laserInBase()));
+    ++stats_.submaps;
+  }
+  activeSubmap().addNode(n, nodes_[activeSubmap().anchor()].tracker_pose.inverse().compose(tracker_pose));
+  ++stats_.nodes;
+  step.new_node = true;
+  if (params_.loop_closure) closeLoops(n, step);
+}
+
+void GraphSlam::closeLoops(int n, ScanStep& step) {
+  std::vector<Pose2D> anchor_poses;
+  anchor_poses.reserve(submaps_.size());
+  for (const auto& s : submaps_) anchor_poses.push_back(poses_[s->anchor()]);
+  const double loop_length = params_.graph.loop_sigma_xy / std::max(1e-6, params_.graph.loop_window_xy_per_m);
+  const LoopQuery query{nodes_[n].points, poses_[n], travel_,
+                        graphDistances(static_cast<int>(nodes_.size()), edges_, n, loop_length, closer_.saturationDistance())};
+  const std::vector<LoopClosure> closures = closer_.search(query, submaps_, anchor_poses, stats_);
+  if (closures.empty()) return;
+  for (const LoopClosure& c : closures) {
+    // Relative to the submap's node nearest to the match: the submap holds the tracker's drift
+    // since its anchor, the nearest node only what drifted between it and the match.
+    const auto& [near, near_in_anchor] = submaps_[c.submap]->nearestNode(c.pose.x, c.pose.y);
+    edges_.push_back(loopEdge(near, n, near_in_anchor.inverse().compose(c.pose)));
+  }
+  stats_.loop_accepted += closures.size();
+  step.loop_closures = static_cast<int>(closures.size());
+  step.map_moved = optimize();
+}
+
+void GraphSlam::addLoopClosure(int from_node, int to_node, const Pose2D& measurement) {
+  edges_.push_back(loopEdge(from_node, to_node, measurement));
+  ++stats_.loop_accepted;
+  optimize();
+}
+
+PoseGraphEdge GraphSlam::odometryEdge(int from, int to) const {
+  const GraphParams& g = params_.graph;
+  const Pose2D motion = nodes_[from].tracker_pose.inverse().compose(nodes_[to].tracker_pose);
+  const double d = std::hypot(motion.x, motion.y), turn = std::abs(motion.yaw);
+  const double sxy = g.odometry_sigma_xy + g.odometry_sigma_xy_per_m * d;
+  const double syaw = g.odometry_sigma_yaw + g.odometry_sigma_yaw_per_m * d + g.odometry_sigma_yaw_per_rad * turn;
+  PoseGraphEdge e;
+  e.from = from, e.to = to, e.measurement = motion;
+  e.information = Eigen::Vector3d(1 / (sxy * sxy), 1 / (sxy * sxy), 1 / (syaw * syaw)).asDiagonal();
+  return e;
+}
+
+PoseGraphEdge GraphSlam::loopEdge(int from, int to, const Pose2D& measurement) const {
+  const GraphParams& g = params_.graph;
+  PoseGraphEdge e;
+  e.from = from, e.to = to, e.measurement = measurement, e.loop_closure = true;
+  e.information = Eigen::Vector3d(1 / (g.loop_sigma_xy * g.loop_sigma_xy), 1 / (g.loop_sigma_xy * g.loop_sigma_xy),
+                                  1 / (g.loop_sigma_yaw * g.loop_sigma_yaw)).asDiagonal();
+  return e;
+}
+
+bool GraphSlam::optimize() {
+  bool moved = false;
+  for (int round = 0; round < kMaxOutlierRounds; ++round) {
+    ++stats_.optimizations;
+    const OptimizeResult result = solver_->optimize(poses_, edges_);
+    if (!result.ok) {
+      ++stats_.optimization_failures;
+      stats_.last_problem = "pose graph not optimised, last good poses kept: " + result.reason;
+      return moved;
+    }
+    moved = true;
+    const size_t before = edges_.size();
+    edges_.erase(std::remove_if(edges_.begin(), edges_.end(),
+                                [&](const PoseGraphEdge& e) {
+                                  return e.loop_closure && edgeChi2(poses_, e) > params_.graph.loop_outlier_chi2;
+                                }),
+                 edges_.end());
+    stats_.loop_dropped += before - edges_.size();
+    if (edges_.size() == before) break;
+  }
+  ++map_version_;
+  return moved;
+}
+
+Pose2D GraphSlam::pose() const {
+  if (nodes_.empty()) return tracker_.filter().pose();
+  return poses_.back().compose(nodes_.back().tracker_pose.inverse().compose(tracker_.filter().pose()));
+}
+
+std::vector<Pose2D> GraphSlam::trajectory() const {
+  std::vector<Pose2D> out;
+  out.reserve(scans_.size());
+  for (const ScanRef& s : scans_) out.push_back(poses_[s.node].compose(s.offset));
+  return out;
+}
+
+OccupancyGrid GraphSlam::map() const {
+  if (map_cache_version_ == map_version_) return map_cache_;
+  if (submaps_.empty()) {
+    map_cache_ = GridMapper(params_.grid, Pose2D{}).toGrid();
+  } else {
+    std::vector<fusion::PlacedGrid> placed;
+    for (size_t i = 1; i < submaps_.size(); ++i) placed.push_back({&submaps_[i]->grid(), poses_[submaps_[i]->anchor()]});
+    // The first submap's anchor is node 0, fixed at the map frame's origin by the optimiser.
+    map_cache_ = fusion::mergeGrids(submaps_[0]->grid(), placed);
+  }
+  map_cache_version_ = map_version_;
+  return map_cache_;
+}
+
+std::unique_ptr<FrontEnd> makeFrontEnd(const RobotSlamParams& params, const Pose2D& laser_in_base) {
+  if (params.loop_closure) return std::make_unique<GraphSlam>(params, laser_in_base);
+  return std::make_unique<EkfFrontEnd>(params, laser_in_base);
+}
+
+}  // namespace mrslam::slam

@@ -1,0 +1,133 @@
+#include "mrslam/slam/local_tracker.h"
+
+#include <Eigen/Eigenvalues>
+
+namespace mrslam::slam {
+
+LocalTracker::LocalTracker(const RobotSlamParams& params, const Pose2D& laser_in_base)
+    : params_(params), laser_in_base_(laser_in_base), ekf_(params.motion), matcher_(params.matcher, laser_in_base) {
+  reset();
+}
+
+void LocalTracker::reset() {
+  // The map frame is the robot's pose at its first scan, known exactly.
+  ekf_.reset(Pose2D{}, Eigen::Matrix3d::Identity() * 1e-9);
+  matcher_.clear();
+  seed_matcher_.reset();
+  odometry_ = Pose2D{};
+  gyro_yaw_ = gyro_var_ = 0;
+  have_gyro_ = false;
+  scans_ = 0;
+}
+
+void LocalTracker::addOdometry(const Pose2D& increment) {
+  if (std::isfinite(increment.x) && std::isfinite(increment.y) && std::isfinite(increment.yaw))
+    odometry_ = odometry_.compose(increment);
+}
+
+void LocalTracker::addGyro(double yaw_increment, double variance) {
+  if (!std::isfinite(yaw_increment) || !std::isfinite(variance) || variance < 0) return;
+  gyro_yaw_ += yaw_increment;
+  gyro_var_ += variance;
+  have_gyro_ = true;
+}
+
+bool LocalTracker::doubted(const Pose2D& u, double stamp) const {
+  double limit = params_.max_odometry_jump;
+  if (time_usable_ && scans_ > 0) limit += params_.max_odometry_speed * std::max(0.0, stamp - last_stamp_);
+  return std::hypot(u.x, u.y) > limit;
+}
+
+CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw,
+                                         double sigma_xy, double sigma_yaw) {
+  if (!seed_matcher_ || seed_version_ != matcher_.version()) {
+    auto grid = std::make_shared<const LikelihoodGrid>(matcher_.localPoints(), params_.seed.resolution,
+                                                       params_.seed.sigma, params_.seed.max_xy);
+    seed_matcher_ = std::make_unique<CorrelativeMatcher>(grid, 5);
+    seed_version_ = matcher_.version();
+  }
+  SearchWindow window{center, xy, yaw, sigma_xy, sigma_yaw, params_.seed.penalty_gain, params_.seed.min_penalty};
+  return seed_matcher_->match(points, window, params_.seed.min_score);
+}
+
+bool LocalTracker::scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction) {
+  if (!params_.seed.enabled) return false;
+  const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), params_.seed.resolution);
+  seedMatch(points, prediction, 0, 0, 0, 0);  // makes sure the local map's grid is current
+  const LikelihoodGrid& grid = seed_matcher_->grid();
+  return grid.score(transformPoints(points, match)) >
+         grid.score(transformPoints(points, prediction)) + params_.seed.slip_margin;
+}
+
+ScanStep LocalTracker::track(const LaserScan& scan) {
+  ScanStep step;
+  step.reason = scanProblem(scan);
+  if (!step.reason.empty()) return step;
+  if (validBeams(scan) < 20) {
+    step.reason = "fewer than 20 valid returns";
+    return step;
+  }
+  step.used = true;
+  const Pose2D u = odometry_;
+  odometry_ = Pose2D{};
+  step.odometry_doubted = scans_ > 0 && doubted(u, scan.stamp);
+  last_stamp_ = scan.stamp;
+  const Pose2D before = ekf_.pose();
+  const Eigen::Matrix3d before_cov = ekf_.covariance();
+  if (scans_ > 0) {
+    ekf_.predict(u);
+    if (params_.use_imu && have_gyro_ && gyro_var_ > 0) step.imu_used = ekf_.updateYawIncrement(gyro_yaw_, gyro_var_);
+  }
+  // What the gyro says the robot turned, for the no-motion hypothesis of a doubted increment.
+  const double turned = step.imu_used ? gyro_yaw_ : 0.0;
+  gyro_yaw_ = gyro_var_ = 0;
+  have_gyro_ = false;
+
+  if (params_.use_scan_matching && !matcher_.empty()) {
+    Pose2D guess = ekf_.pose();
+    const SeedParams& sp = params_.seed;
+    const Eigen::Matrix3d& P = ekf_.covariance();
+    const double sigma_xy = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P.topLeftCorner<2, 2>()).eigenvalues().maxCoeff());
+    const double sigma_yaw = std::sqrt(P(2, 2));
+    if (sp.enabled && (step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
+      const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), sp.resolution);
+      const double xy = step.odometry_doubted ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
+      const double yaw = step.odometry_doubted ? sp.max_yaw : std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw);
+      CorrelativeMatch seed = seedMatch(points, guess, xy, yaw, sigma_xy, sigma_yaw);
+      if (step.odometry_doubted) {
+        const Pose2D still{before.x, before.y, Pose2D::normalizeAngle(before.yaw + turned)};
+        const CorrelativeMatch at_rest = seedMatch(points, still, xy, yaw, sigma_xy, sigma_yaw);
+        if (at_rest.found && (!seed.found || at_rest.score > seed.score)) {
+          // The scan agrees better with no motion: the increment was a jump, not motion.
+          step.odometry_jump = true;
+          seed = at_rest;
+          ekf_.reset(still, before_cov + Eigen::Matrix3d::Identity() * 0.01);
+        }
+      }
+      if (seed.found) {
+        guess = seed.pose;
+        step.seeded = true;
+      }
+    }
+    step.match = matcher_.match(scan, guess);
+    if (step.match.ok) {
+      // A doubted prediction is worthless as a prior: let the match decide.
+      if (step.odometry_doubted) ekf_.reset(ekf_.pose(), ekf_.covariance() + Eigen::Matrix3d::Identity());
+      step.matched = ekf_.updatePose(step.match.pose, step.match.covariance);
+      if (!step.matched && scanPrefers(scan, step.match.pose, ekf_.pose())) {
+        // The gate says the match is far from the prediction, but the scan fits the local map
+        // clearly better there: the odometry slipped (a bump, a wheel off the floor) while
+        // predicting with confidence. Trust the scan.
+        step.odometry_slipped = true;
+        ekf_.reset(ekf_.pose(), ekf_.covariance() + Eigen::Matrix3d::Identity());
+        step.matched = ekf_.updatePose(step.match.pose, step.match.covariance);
+      }
+      step.gated = !step.matched;
+    }
+  }
+  matcher_.addIfKey(scan, ekf_.pose());
+  ++scans_;
+  return step;
+}
+
+}  // namespace mrslam::slam

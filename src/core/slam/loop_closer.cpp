@@ -1,0 +1,110 @@
+#include "mrslam/slam/loop_closer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+namespace mrslam::slam {
+
+namespace {
+constexpr size_t kCachedSubmaps = 16;  // matchers kept (the search is local: few submaps at a time)
+constexpr double kRivalXy = 1.0;       // m: a rival must be at least this far...
+constexpr double kRivalYaw = 0.087;    // rad: ...or turned this much (5 degrees) from the match
+constexpr double kIcpAgreeXy = 0.3;    // m: ICP may move the correlative match this far...
+constexpr double kIcpAgreeYaw = 0.087; // rad: ...and turn it this much, or the pair is rejected
+}  // namespace
+
+LoopCloser::LoopCloser(const GraphParams& params, const ScanMatcherParams& icp) : params_(params), icp_params_(icp) {}
+
+std::pair<double, double> LoopCloser::window(double distance) const {
+  return {std::min(params_.loop_window_xy_max, params_.loop_window_xy + params_.loop_window_xy_per_m * distance),
+          std::min(params_.loop_window_yaw_max, params_.loop_window_yaw + params_.loop_window_yaw_per_m * distance)};
+}
+
+double LoopCloser::saturationDistance() const {
+  return std::max((params_.loop_window_xy_max - params_.loop_window_xy) / params_.loop_window_xy_per_m,
+                  (params_.loop_window_yaw_max - params_.loop_window_yaw) / params_.loop_window_yaw_per_m);
+}
+
+const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& submap) {
+  auto it = cache_.find(index);
+  if (it == cache_.end()) {
+    if (cache_.size() >= kCachedSubmaps) {
+      auto oldest = std::min_element(cache_.begin(), cache_.end(),
+                                     [](const auto& a, const auto& b) { return a.second.used < b.second.used; });
+      cache_.erase(oldest);
+    }
+    Matchers m;
+    auto grid = std::make_shared<const LikelihoodGrid>(submap.points(), params_.loop_resolution, params_.loop_sigma, 1.0);
+    m.correlative = std::make_unique<CorrelativeMatcher>(grid, 7);
+    m.icp = std::make_unique<PointCloudAligner>(icp_params_);
+    m.icp->setReference(submap.points());
+    it = cache_.emplace(index, std::move(m)).first;
+  }
+  it->second.used = ++clock_;
+  return it->second;
+}
+
+std::optional<LoopClosure> LoopCloser::tryClosure(const LoopQuery& query, int index, const Submap& submap,
+                                                  const Pose2D& anchor_pose, double distance, FrontEndStats& stats) {
+  ++stats.loop_attempts;
+  const auto [xy, yaw] = window(distance);
+  const Matchers& m = matchersOf(index, submap);
+  const SearchWindow search{anchor_pose.inverse().compose(query.pose), xy, yaw};
+  const CorrelativeMatch best = m.correlative->match(query.points, search, params_.loop_min_score);
+  if (!best.found) {
+    ++stats.loop_rejected_score;
+    return std::nullopt;
+  }
+  const double rival_floor = params_.loop_max_rival * best.score;
+  const CorrelativeMatch rival =
+      m.correlative->match(query.points, search, rival_floor, &best.pose, kRivalXy, kRivalYaw);
+  if (rival.found) {
+    ++stats.loop_rejected_ambiguous;
+    return std::nullopt;
+  }
+  const ScanMatch refined = m.icp->align(query.points, best.pose);
+  const Pose2D moved = best.pose.inverse().compose(refined.pose);
+  if (!refined.ok || std::hypot(moved.x, moved.y) > kIcpAgreeXy || std::abs(moved.yaw) > kIcpAgreeYaw) {
+    ++stats.loop_rejected_icp;
+    return std::nullopt;
+  }
+  const double score = m.correlative->grid().score(transformPoints(query.points, refined.pose));
+  if (score < params_.loop_min_score) {
+    ++stats.loop_rejected_icp;
+    return std::nullopt;
+  }
+  return LoopClosure{index, refined.pose, score, rival.found ? rival.score : 0.0};
+}
+
+std::vector<LoopClosure> LoopCloser::search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
+                                            const std::vector<Pose2D>& anchor_poses, FrontEndStats& stats) {
+  struct Near {
+    double beyond;    // distance from the node to the submap's pose circle
+    double distance;  // through the graph to the submap's nearest node
+    int index;
+  };
+  std::vector<Near> near;
+  for (size_t i = 0; i < submaps.size(); ++i) {
+    const Submap& s = *submaps[i];
+    if (!s.finished() || s.finishedAtTravel() > query.travel - params_.loop_min_travel) continue;
+    double distance = std::numeric_limits<double>::infinity();
+    for (const auto& [node, pose] : s.nodeList()) distance = std::min(distance, query.graph_distance[node]);
+    double cx, cy, radius;
+    s.poseCircle(cx, cy, radius);
+    double x, y;
+    anchor_poses[i].apply(cx, cy, x, y);
+    const double beyond = std::hypot(x - query.pose.x, y - query.pose.y) - radius;
+    if (beyond <= window(distance).first + params_.loop_view_distance) near.push_back({beyond, distance, static_cast<int>(i)});
+  }
+  std::sort(near.begin(), near.end(), [](const Near& a, const Near& b) { return a.beyond < b.beyond; });
+  std::vector<LoopClosure> closures;
+  for (size_t k = 0; k < near.size() && static_cast<int>(k) < params_.loop_max_candidates; ++k) {
+    const int i = near[k].index;
+    if (auto closure = tryClosure(query, i, *submaps[i], anchor_poses[i], near[k].distance, stats)) closures.push_back(*closure);
+  }
+  return closures;
+}
+
+}  // namespace mrslam::slam
