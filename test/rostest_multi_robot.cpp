@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <mrslam/LocalMapShare.h>
 #include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
 #include <tf2/utils.h>
@@ -48,6 +49,7 @@ struct Robot : mrslam::bench::RobotTrack {
   std::map<std::string, PeerStatus> peers;
   nav_msgs::OccupancyGrid::ConstPtr merged;
   ros::WallTime last_status;  // when its merge_status last arrived: its manager is alive
+  size_t poses_seen = 0;      // pose messages received (the bag is over when this stops)
   std::vector<ros::Subscriber> subs;
 };
 
@@ -59,10 +61,18 @@ class MultiRobotTest : public ::testing::Test {
   void subscribe(ros::NodeHandle& nh, const std::string& name) {
     Robot& r = robots[name];
     r.subs.push_back(nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
-        "/" + name + "/pose", 1000, [this, name](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
+        "/" + name + "/pose", 1000, [this, name](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr&) {
           std::lock_guard<std::mutex> lock(mutex);
-          robots[name].estimate[m->header.stamp.toNSec()] = toPose(m->pose.pose);
+          ++robots[name].poses_seen;
         }));
+    // The robot's current estimate of every scan's pose (loop closures move earlier ones): the
+    // poses its final map was built from.
+    r.subs.push_back(nh.subscribe<nav_msgs::Path>("/" + name + "/trajectory", 1, [this, name](const nav_msgs::Path::ConstPtr& m) {
+      std::lock_guard<std::mutex> lock(mutex);
+      auto& estimate = robots[name].estimate;
+      estimate.clear();
+      for (const auto& p : m->poses) estimate[p.header.stamp.toNSec()] = toPose(p.pose);
+    }));
     r.subs.push_back(nh.subscribe<geometry_msgs::PoseStamped>(
         "/" + name + "/reference_pose", 1000, [this, name](const geometry_msgs::PoseStamped::ConstPtr& m) {
           std::lock_guard<std::mutex> lock(mutex);
@@ -178,7 +188,7 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     }
     std::lock_guard<std::mutex> lock(mutex);
     size_t poses = 0;
-    for (const auto& n : names) poses += robots[n].estimate.size();
+    for (const auto& n : names) poses += robots[n].poses_seen;
     if (poses != poses_seen) poses_seen = poses, poses_changed = ros::WallTime::now();
     const bool bag_done = poses > 30 && (ros::WallTime::now() - poses_changed).toSec() >= 3.0;
     settled = bag_done;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
+#include <algorithm>
 #include <cstdio>
 
 #include "mrslam/fusion/peer_quarantine.h"
@@ -19,6 +20,9 @@ std::shared_ptr<const OccupancyGrid> realMap() {
   return map;
 }
 
+// A map summary with `extra` more known cells (and so another content).
+MapSummary grown(const MapSummary& s, size_t extra) { return {s.known_cells + extra, s.content ^ (extra * 7919 + 1)}; }
+
 FusionResult estimate(bool accepted, Pose2D pose, double v) {
   FusionResult r;
   r.accepted = accepted;
@@ -31,7 +35,7 @@ FusionResult estimate(bool accepted, Pose2D pose, double v) {
 
 TEST(PeerRegistry, DiscoversPeersAndReEstimatesOnlyWhenMapsGrow) {
   PeerRegistry registry("robot2");
-  const size_t own = knownCells(*realMap());
+  const MapSummary own = summarize(*realMap());
   EXPECT_FALSE(registry.nextToEstimate(own, 0.0));
   EXPECT_TRUE(registry.updatePeer("robot1", realMap(), 1, 0.0));   // discovered
   EXPECT_FALSE(registry.updatePeer("robot1", realMap(), 2, 1.0));  // known
@@ -39,30 +43,53 @@ TEST(PeerRegistry, DiscoversPeersAndReEstimatesOnlyWhenMapsGrow) {
   registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, 2.0);
   EXPECT_FALSE(registry.nextToEstimate(own, 3.0)) << "nothing grew";
   EXPECT_FALSE(registry.nextToEstimate(own, 100.0)) << "nothing changed, however long ago";
-  EXPECT_TRUE(registry.nextToEstimate(own * 12 / 10, 3.0)) << "our map grew by 20 %";
-  EXPECT_FALSE(registry.nextToEstimate(own + 10, 3.0)) << "a small change waits for the refresh period";
-  EXPECT_TRUE(registry.nextToEstimate(own + 10, 13.0)) << "...and is estimated after it";
-  EXPECT_FALSE(registry.nextToEstimate(1000, 100.0)) << "maps this small are not estimated";
+  EXPECT_TRUE(registry.nextToEstimate(grown(own, own.known_cells / 5), 3.0)) << "our map grew by 20 %";
+  EXPECT_FALSE(registry.nextToEstimate(grown(own, 10), 3.0)) << "a small change waits for the refresh period";
+  EXPECT_TRUE(registry.nextToEstimate(grown(own, 10), 13.0)) << "...and is estimated after it";
+  EXPECT_FALSE(registry.nextToEstimate(MapSummary{1000, 1}, 100.0)) << "maps this small are not estimated";
 }
 
 TEST(PeerRegistry, RefreshRunsOnTheSchedulingClockAndReportsCurrentEstimates) {
   // A bag's clock stops at its end: estimates stamped with it must still be refreshed on the
   // (wall) scheduling clock, or the final maps would never be merged.
   PeerRegistry registry("robot2");
-  const size_t own = knownCells(*realMap());
+  const MapSummary own = summarize(*realMap());
   registry.updatePeer("robot1", realMap(), 1, 50.0);
   EXPECT_FALSE(registry.estimateIsCurrent(registry.peers().at("robot1"), own)) << "never estimated";
   registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, /*stamp*/ 50.0, /*clock*/ 1000.0);
   EXPECT_TRUE(registry.estimateIsCurrent(registry.peers().at("robot1"), own));
-  EXPECT_FALSE(registry.estimateIsCurrent(registry.peers().at("robot1"), own + 10)) << "our map changed";
-  EXPECT_FALSE(registry.nextToEstimate(own + 10, 1005.0)) << "within the refresh period of the clock";
-  EXPECT_TRUE(registry.nextToEstimate(own + 10, 1010.0)) << "refresh period passed on the clock";
+  EXPECT_FALSE(registry.estimateIsCurrent(registry.peers().at("robot1"), grown(own, 10))) << "our map changed";
+  EXPECT_FALSE(registry.nextToEstimate(grown(own, 10), 1005.0)) << "within the refresh period of the clock";
+  EXPECT_TRUE(registry.nextToEstimate(grown(own, 10), 1010.0)) << "refresh period passed on the clock";
   EXPECT_EQ(registry.peers().at("robot1").last_attempt.stamp, 50.0) << "the estimate keeps its stamp";
+}
+
+TEST(PeerRegistry, MovedWallsAreAChangeAndAHeldTransformIsNotCurrentAfterARejection) {
+  // A loop closure moves walls without adding known cells: the map's content changed all the
+  // same, and the estimate made on the old map no longer describes it.
+  PeerRegistry registry("robot2");
+  const MapSummary own = summarize(*realMap());
+  registry.updatePeer("robot1", realMap(), 1, 0.0);
+  registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, 1.0);
+  ASSERT_TRUE(registry.estimateIsCurrent(registry.peers().at("robot1"), own));
+  auto moved = std::make_shared<OccupancyGrid>(*realMap());
+  auto occupied = std::find_if(moved->data.begin(), moved->data.end(), [](int8_t v) { return v > 50; });
+  auto free = std::find_if(moved->data.begin(), moved->data.end(), [](int8_t v) { return v == 0; });
+  ASSERT_TRUE(occupied != moved->data.end() && free != moved->data.end());
+  std::iter_swap(occupied, free);
+  registry.updatePeer("robot1", moved, 2, 2.0);
+  EXPECT_EQ(registry.peers().at("robot1").summary.known_cells, own.known_cells) << "as many known cells as before";
+  EXPECT_FALSE(registry.estimateIsCurrent(registry.peers().at("robot1"), own)) << "yet the content changed";
+  EXPECT_TRUE(registry.nextToEstimate(own, 12.0)) << "re-estimated after the refresh period";
+  // A rejection on the new maps: the transform in use is kept (hysteresis) but is not current.
+  registry.applyEstimate("robot1", estimate(false, {}, 0.9), own, 12.0);
+  EXPECT_TRUE(registry.peers().at("robot1").accepted);
+  EXPECT_FALSE(registry.estimateIsCurrent(registry.peers().at("robot1"), own));
 }
 
 TEST(PeerRegistry, HysteresisRefinesKeepsAndRevokes) {
   PeerRegistry registry("robot2");
-  const size_t own = knownCells(*realMap());
+  const MapSummary own = summarize(*realMap());
   registry.updatePeer("robot1", realMap(), 1, 0.0);
   EXPECT_TRUE(registry.applyEstimate("robot1", estimate(true, {1, 2, 0.1}, 0.98), own, 1.0));
   // A nearby estimate refines it, even with a slightly lower V.
@@ -83,7 +110,7 @@ TEST(PeerRegistry, HysteresisRefinesKeepsAndRevokes) {
 
 TEST(PeerRegistry, RestartedPeerIsForgottenAndTheTfParentIsTheSmallestAcceptedIdBelowUs) {
   PeerRegistry registry("robot3");
-  const size_t own = knownCells(*realMap());
+  const MapSummary own = summarize(*realMap());
   for (const char* id : {"robot1", "robot2", "robot4"}) registry.updatePeer(id, realMap(), 5, 0.0);
   EXPECT_FALSE(registry.parentOf()) << "nothing accepted: robot3/map is a root";
   registry.applyEstimate("robot4", estimate(true, {}, 0.99), own, 1.0);

@@ -236,10 +236,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
 
   void takeOwnMap(const nav_msgs::OccupancyGrid& msg) {
     auto grid = std::make_shared<const OccupancyGrid>(gridFromMsg(msg));
-    const size_t known = fusion::knownCells(*grid);
+    const fusion::MapSummary summary = fusion::summarize(*grid);
     std::lock_guard<std::mutex> lock(mutex_);
     own_grid_ = std::move(grid);
-    own_known_ = known;
+    own_summary_ = summary;
     own_changed_since_merge_ = true;
   }
 
@@ -265,13 +265,13 @@ class MapMergeNodelet : public nodelet::Nodelet {
   void estimateNext() {
     std::shared_ptr<const OccupancyGrid> own, peer_map;
     std::string peer_id;
-    size_t own_known = 0;
+    fusion::MapSummary own_summary;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!own_grid_) return;
       own = own_grid_;
-      own_known = own_known_;
-      if (auto next = registry_->nextToEstimate(own_known, ros::WallTime::now().toSec())) {
+      own_summary = own_summary_;
+      if (auto next = registry_->nextToEstimate(own_summary, ros::WallTime::now().toSec())) {
         peer_id = *next;
         peer_map = registry_->peers().at(peer_id).map;
       } else {
@@ -298,7 +298,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!registry_->peers().count(peer_id)) return;
     const bool had = registry_->peers().at(peer_id).accepted.has_value();
-    if (registry_->applyEstimate(peer_id, result, own_known, ros::Time::now().toSec(), ros::WallTime::now().toSec())) {
+    if (registry_->applyEstimate(peer_id, result, own_summary, ros::Time::now().toSec(), ros::WallTime::now().toSec())) {
       if (!registry_->peers().at(peer_id).accepted)
         NODELET_WARN("transform to %s revoked: rejected %d times in a row on grown maps (%s)", peer_id.c_str(),
                      registry_->peers().at(peer_id).rejections_in_a_row, result.verdict.reason.c_str());
@@ -364,7 +364,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       s.add("first_map_time", peer.first_seen);
       s.add("accepted_since", peer.accepted_since);
       s.add("attempts", peer.attempts);
-      s.add("estimate_current", registry_->estimateIsCurrent(peer, own_known_));
+      s.add("estimate_current", registry_->estimateIsCurrent(peer, own_summary_));
       s.add("version", peer.version);
       array->status.push_back(s);
     }
@@ -436,7 +436,8 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::shared_ptr<const OccupancyGrid> own_grid_;
   nav_msgs::OccupancyGrid::ConstPtr merged_;
   std::map<std::string, SharedMap::ConstPtr> pending_;  // newest unconverted map of each peer
-  size_t own_known_ = 0, rejected_maps_ = 0, faults_ = 0, quarantined_shares_ = 0;
+  fusion::MapSummary own_summary_;
+  size_t rejected_maps_ = 0, faults_ = 0, quarantined_shares_ = 0;
   uintptr_t own_address_ = 0;
   bool own_dirty_ = false, merged_due_ = false, own_changed_since_merge_ = false;
   ros::WallTime last_merged_, last_status_;

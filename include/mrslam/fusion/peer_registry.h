@@ -43,13 +43,23 @@ struct PeerEstimate {
   std::string reason;       // why rejected
 };
 
+// What the scheduling needs to know of a map: how much of it is known (growth) and a hash of
+// its content (any change at all, e.g. a loop closure that moved walls without adding cells).
+struct MapSummary {
+  size_t known_cells = 0;
+  uint64_t content = 0;
+  bool operator==(const MapSummary& o) const { return known_cells == o.known_cells && content == o.content; }
+  bool operator!=(const MapSummary& o) const { return !(*this == o); }
+};
+MapSummary summarize(const OccupancyGrid& grid);
+
 struct Peer {
   std::string id;
   std::shared_ptr<const OccupancyGrid> map;  // latest valid map
   uint32_t version = 0;
   double first_seen = 0, last_seen = 0;
-  size_t known_cells = 0;
-  size_t known_at_estimate = 0, own_known_at_estimate = 0;
+  MapSummary summary;                             // of `map`
+  MapSummary at_estimate, own_at_estimate;        // both maps when last estimated
   int attempts = 0;
   int rejections_in_a_row = 0;
   std::optional<PeerEstimate> accepted;  // the transform in use
@@ -73,20 +83,22 @@ class PeerRegistry {
   bool updatePeer(const std::string& id, std::shared_ptr<const OccupancyGrid> map, uint32_t version, double now);
   // Drops all we know about a peer (its map could not be fused after all).
   void forget(const std::string& id) { peers_.erase(id); }
-  // The peer whose transform should be (re-)estimated next, given our map's known cells: never
-  // estimated first, then the one whose maps grew the most, then one whose maps changed at all
-  // and whose estimate is older than refresh_period on the scheduling `clock`. None when nothing
-  // needs work. The nodelet's clock is the wall clock: refreshing is a CPU budget, and a bag's
-  // clock stops at its end, which would leave the final maps unmerged.
-  std::optional<std::string> nextToEstimate(size_t own_known_cells, double clock) const;
+  // The peer whose transform should be (re-)estimated next, given our map: never estimated
+  // first, then the one whose maps grew the most, then one whose maps changed at all (content,
+  // not only size) and whose estimate is older than refresh_period on the scheduling `clock`.
+  // None when nothing needs work. The nodelet's clock is the wall clock: refreshing is a CPU
+  // budget, and a bag's clock stops at its end, which would leave the final maps unmerged.
+  std::optional<std::string> nextToEstimate(const MapSummary& own, double clock) const;
   // Records an estimate with hysteresis. Returns true when the transform in use changed
   // (replaced or revoked).
   // (replaced or revoked). `now` stamps the estimate (ROS time); `clock` is the scheduling clock
   // of nextToEstimate (defaults to now).
-  bool applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now,
+  bool applyEstimate(const std::string& id, const FusionResult& result, const MapSummary& own, double now,
                      std::optional<double> clock = std::nullopt);
-  // True when neither map changed since the peer's last estimate: it describes the current maps.
-  bool estimateIsCurrent(const Peer& peer, size_t own_known_cells) const;
+  // True when the transform in use was estimated on both maps as they are now: neither changed
+  // since the last estimate, and that estimate was not a rejection (a transform kept from older
+  // maps through hysteresis is not current).
+  bool estimateIsCurrent(const Peer& peer, const MapSummary& own) const;
   // Our map frame's tf parent under the convention above.
   std::optional<std::string> parentOf() const;
 

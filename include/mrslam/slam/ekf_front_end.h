@@ -21,7 +21,9 @@ class EkfFrontEnd : public FrontEnd {
   Pose2D pose() const override { return tracker_.filter().pose(); }
   Eigen::Matrix3d covariance() const override { return tracker_.filter().covariance(); }
   std::vector<Pose2D> trajectory() const override { return trajectory_; }
-  OccupancyGrid map() const override { return mapper_.toGrid(); }
+  std::vector<MapPart> mapParts() const override {
+    return {{std::make_shared<const OccupancyGrid>(mapper_.toGrid()), Pose2D{}}};
+  }
   uint64_t mapVersion() const override { return mapper_.version(); }
   FrontEndStats stats() const override { return stats_; }
   std::string name() const override { return "ekf"; }

@@ -95,6 +95,17 @@ struct RobotSlamParams {
   double max_odometry_speed = 2.0;  // m/s
 };
 
+// A piece of the robot's map and where it sits in the map frame. Pieces are never modified once
+// handed out, so a map can be composed from them without holding the front end.
+struct MapPart {
+  std::shared_ptr<const OccupancyGrid> grid;
+  Pose2D pose;  // of the piece's frame in the map frame
+};
+
+// The map from its pieces (log-odds sum, fusion/grid_merge.h), in the first piece's lattice;
+// the first piece's frame must be the map frame.
+OccupancyGrid composeMap(const std::vector<MapPart>& parts);
+
 struct ScanStep {
   bool used = false;            // false: the scan was rejected (reason says why)
   std::string reason;
@@ -142,9 +153,11 @@ class FrontEnd {
   virtual Eigen::Matrix3d covariance() const = 0;
   // The best estimate of the pose of every scan used so far, in order (moves when loops close).
   virtual std::vector<Pose2D> trajectory() const = 0;
-  // The map; its version changes whenever its content changes (new scans or moved poses).
-  virtual OccupancyGrid map() const = 0;
+  // The map as pieces (cheap: the caller composes them, composeMap) and the version of its
+  // content, which changes with new scans and with moved poses.
+  virtual std::vector<MapPart> mapParts() const = 0;
   virtual uint64_t mapVersion() const = 0;
+  OccupancyGrid map() const { return composeMap(mapParts()); }
   virtual FrontEndStats stats() const = 0;
   virtual std::string name() const = 0;
 };

@@ -37,7 +37,7 @@ class GraphSlam : public FrontEnd {
   Pose2D pose() const override;
   Eigen::Matrix3d covariance() const override { return tracker_.filter().covariance(); }
   std::vector<Pose2D> trajectory() const override;
-  OccupancyGrid map() const override;
+  std::vector<MapPart> mapParts() const override;
   uint64_t mapVersion() const override { return map_version_; }
   FrontEndStats stats() const override { return stats_; }
   std::string name() const override { return "graph"; }
@@ -82,8 +82,6 @@ class GraphSlam : public FrontEnd {
   Pose2D last_tracker_pose_;
   uint64_t map_version_ = 0;
   FrontEndStats stats_;
-  mutable OccupancyGrid map_cache_;
-  mutable uint64_t map_cache_version_ = ~0ull;
 };
 
 }  // namespace mrslam::slam

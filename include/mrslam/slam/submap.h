@@ -36,8 +36,8 @@ class Submap {
   const Points2& points() const { return points_; }
   // Centre and radius (anchor frame) of a circle holding every pose a scan was taken from.
   void poseCircle(double& cx, double& cy, double& radius) const;
-  // The occupancy grid in the anchor's frame (cached once finished).
-  const OccupancyGrid& grid() const;
+  // The occupancy grid in the anchor's frame, exported when it changed; never modified after.
+  std::shared_ptr<const OccupancyGrid> grid() const;
   uint64_t version() const { return mapper_.version(); }
 
  private:
@@ -48,7 +48,7 @@ class Submap {
   std::vector<std::pair<int, Pose2D>> nodes_;  // (node, pose in the anchor's frame)
   bool finished_ = false;
   double finished_travel_ = 0;
-  mutable OccupancyGrid grid_;
+  mutable std::shared_ptr<const OccupancyGrid> grid_;
   mutable uint64_t grid_version_ = ~0ull;
 };
 

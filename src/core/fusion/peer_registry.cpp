@@ -8,6 +8,20 @@ size_t knownCells(const OccupancyGrid& grid) {
   return static_cast<size_t>(std::count_if(grid.data.begin(), grid.data.end(), [](int8_t v) { return v >= 0; }));
 }
 
+MapSummary summarize(const OccupancyGrid& grid) {
+  // FNV-1a over the cells and the geometry.
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const void* data, size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  };
+  mix(grid.data.data(), grid.data.size());
+  for (double v : {static_cast<double>(grid.width), static_cast<double>(grid.height), grid.resolution, grid.origin.x,
+                   grid.origin.y, grid.origin.yaw})
+    mix(&v, sizeof v);
+  return {knownCells(grid), h};
+}
+
 bool isValidRobotId(const std::string& id) {
   auto letter = [](char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); };
   auto digit = [](char c) { return c >= '0' && c <= '9'; };
@@ -34,40 +48,42 @@ bool PeerRegistry::updatePeer(const std::string& id, std::shared_ptr<const Occup
   peer.map = std::move(map);
   peer.version = version;
   peer.last_seen = now;
-  peer.known_cells = knownCells(*peer.map);
+  peer.summary = summarize(*peer.map);
   return rejoined;
 }
 
-std::optional<std::string> PeerRegistry::nextToEstimate(size_t own_known_cells, double clock) const {
+std::optional<std::string> PeerRegistry::nextToEstimate(const MapSummary& own, double clock) const {
   std::optional<std::string> best, stale;
   double best_growth = 0, oldest = clock;
+  auto growth = [](size_t now, size_t then) { return then ? static_cast<double>(now) / then - 1 : 1.0; };
   for (const auto& [id, peer] : peers_) {
-    if (!peer.map || own_known_cells < params_.min_known_cells || peer.known_cells < params_.min_known_cells) continue;
+    if (!peer.map || own.known_cells < params_.min_known_cells || peer.summary.known_cells < params_.min_known_cells)
+      continue;
     if (peer.attempts == 0) return id;
-    const double peer_growth = peer.known_at_estimate ? static_cast<double>(peer.known_cells) / peer.known_at_estimate - 1 : 1;
-    const double own_growth = peer.own_known_at_estimate ? static_cast<double>(own_known_cells) / peer.own_known_at_estimate - 1 : 1;
-    const double growth = std::max(peer_growth, own_growth);
-    if (growth >= params_.regrow_fraction && growth > best_growth) best = id, best_growth = growth;
-    if (!estimateIsCurrent(peer, own_known_cells) && clock - peer.last_attempt_clock >= params_.refresh_period &&
-        peer.last_attempt_clock < oldest)
+    const double grew = std::max(growth(peer.summary.known_cells, peer.at_estimate.known_cells),
+                                 growth(own.known_cells, peer.own_at_estimate.known_cells));
+    if (grew >= params_.regrow_fraction && grew > best_growth) best = id, best_growth = grew;
+    const bool changed = peer.summary != peer.at_estimate || own != peer.own_at_estimate;
+    if (changed && clock - peer.last_attempt_clock >= params_.refresh_period && peer.last_attempt_clock < oldest)
       stale = id, oldest = peer.last_attempt_clock;
   }
   return best ? best : stale;
 }
 
-bool PeerRegistry::estimateIsCurrent(const Peer& peer, size_t own_known_cells) const {
-  return peer.attempts > 0 && peer.known_cells == peer.known_at_estimate && own_known_cells == peer.own_known_at_estimate;
+bool PeerRegistry::estimateIsCurrent(const Peer& peer, const MapSummary& own) const {
+  const bool unchanged = peer.attempts > 0 && peer.summary == peer.at_estimate && own == peer.own_at_estimate;
+  return unchanged && (peer.last_attempt.accepted || !peer.accepted);
 }
 
-bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& result, size_t own_known_cells, double now,
+bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& result, const MapSummary& own, double now,
                                  std::optional<double> clock) {
   auto it = peers_.find(id);
   if (it == peers_.end()) return false;
   Peer& peer = it->second;
   ++peer.attempts;
   peer.last_attempt_clock = clock.value_or(now);
-  peer.known_at_estimate = peer.known_cells;
-  peer.own_known_at_estimate = own_known_cells;
+  peer.at_estimate = peer.summary;
+  peer.own_at_estimate = own;
   PeerEstimate estimate{result.accepted, result.pose, result.verdict.acceptance, now, result.verdict.reason};
   peer.last_attempt = estimate;
   if (!estimate.accepted) {

@@ -1,6 +1,16 @@
 #include "mrslam/slam/ekf_front_end.h"
 
+#include "mrslam/fusion/grid_merge.h"
+
 namespace mrslam::slam {
+
+OccupancyGrid composeMap(const std::vector<MapPart>& parts) {
+  if (parts.empty()) return OccupancyGrid{};
+  if (parts.size() == 1) return *parts.front().grid;
+  std::vector<fusion::PlacedGrid> placed;
+  for (size_t i = 1; i < parts.size(); ++i) placed.push_back({parts[i].grid.get(), parts[i].pose});
+  return fusion::mergeGrids(*parts.front().grid, placed);
+}
 
 void countStep(const ScanStep& step, FrontEndStats& stats) {
   ++stats.scans;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-#include "mrslam/fusion/grid_merge.h"
 #include "mrslam/slam/ekf_front_end.h"
 
 namespace mrslam::slam {
@@ -164,18 +163,11 @@ std::vector<Pose2D> GraphSlam::trajectory() const {
   return out;
 }
 
-OccupancyGrid GraphSlam::map() const {
-  if (map_cache_version_ == map_version_) return map_cache_;
-  if (submaps_.empty()) {
-    map_cache_ = GridMapper(params_.grid, Pose2D{}).toGrid();
-  } else {
-    std::vector<fusion::PlacedGrid> placed;
-    for (size_t i = 1; i < submaps_.size(); ++i) placed.push_back({&submaps_[i]->grid(), poses_[submaps_[i]->anchor()]});
-    // The first submap's anchor is node 0, fixed at the map frame's origin by the optimiser.
-    map_cache_ = fusion::mergeGrids(submaps_[0]->grid(), placed);
-  }
-  map_cache_version_ = map_version_;
-  return map_cache_;
+std::vector<MapPart> GraphSlam::mapParts() const {
+  // The first submap's anchor is node 0, which the optimiser holds at the map frame's origin.
+  std::vector<MapPart> parts;
+  for (const auto& s : submaps_) parts.push_back({s->grid(), poses_[s->anchor()]});
+  return parts;
 }
 
 std::unique_ptr<FrontEnd> makeFrontEnd(const RobotSlamParams& params, const Pose2D& laser_in_base) {

@@ -35,9 +35,9 @@ void Submap::poseCircle(double& cx, double& cy, double& radius) const {
   radius = std::hypot(max_x_ - min_x_, max_y_ - min_y_) / 2;
 }
 
-const OccupancyGrid& Submap::grid() const {
+std::shared_ptr<const OccupancyGrid> Submap::grid() const {
   if (grid_version_ != mapper_.version()) {
-    grid_ = mapper_.toGrid();
+    grid_ = std::make_shared<const OccupancyGrid>(mapper_.toGrid());
     grid_version_ = mapper_.version();
   }
   return grid_;

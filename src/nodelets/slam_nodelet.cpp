@@ -1,18 +1,28 @@
-// mrslam/LocalizationNodelet: the robot's cascaded EKF (wheel odometry -> gyro -> ICP against a
-// local map) as a thin layer over slam::RobotSlam.
+// mrslam/SlamNodelet: one robot's SLAM as a thin layer over slam::FrontEnd (front_end.h): the
+// pose graph with loop closure by default, or the paper's cascaded EKF alone (loop_closure:
+// false). It owns the robot's only map.
 //
-// Subscribes (robot namespace): scan (sensor_msgs/LaserScan), odom (nav_msgs/Odometry), imu
-// (sensor_msgs/Imu, optional). Publishes: tf map_frame -> odom_frame (REP-105: map -> base is
-// the filtered pose), pose (geometry_msgs/PoseWithCovarianceStamped), odometry/filtered
-// (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched), diagnostics.
+// Subscribes (robot namespace): scan (sensor_msgs/LaserScan), odom (nav_msgs/Odometry, watched
+// for NaN), imu (sensor_msgs/Imu, optional). Publishes: tf map_frame -> odom_frame (REP-105:
+// map -> base is the estimated pose), pose (geometry_msgs/PoseWithCovarianceStamped),
+// odometry/filtered (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched: the
+// current estimate of every scan's pose, which moves when a loop closes), map
+// (nav_msgs/OccupancyGrid, latched, at most map_publish_rate Hz and only when its content
+// changed) and map_metadata, diagnostics.
 //
 // Timing: callbacks of different topics run in any order, so nothing is accumulated as it
 // arrives. Each scan waits (tf2 message filter) until odom_frame -> base_frame is known at its
 // stamp; the odometry increment is taken from tf at the two scan stamps and the gyro samples
-// are integrated over exactly that interval from a time-ordered buffer. The odom topic itself
-// is watched for NaN poses and jumps (diagnostics).
+// are integrated over exactly that interval from a time-ordered buffer.
+//
+// Zero copy: every map is a freshly allocated grid composed from the front end's map pieces
+// outside the lock the scan callback needs, published as a shared pointer and never touched
+// again, so nodelets in the same manager (map share, map merge) receive that very object.
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <message_filters/subscriber.h>
+#include <nav_msgs/MapMetaData.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
@@ -20,8 +30,6 @@
 #include <ros/ros.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/LaserScan.h>
-#include <tf2/utils.h>
-#include <message_filters/subscriber.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -39,7 +47,7 @@
 
 namespace mrslam::nodelets {
 
-class LocalizationNodelet : public nodelet::Nodelet {
+class SlamNodelet : public nodelet::Nodelet {
  private:
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
@@ -52,10 +60,14 @@ class LocalizationNodelet : public nodelet::Nodelet {
     pnh.param("max_time_jump", max_time_jump_, 1.0);
     pnh.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
     pnh.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
+    double map_rate = 1.0, period = 1.0;
+    pnh.param("map_publish_rate", map_rate, map_rate);
+    pnh.param("diagnostics_period", period, period);
     params_ = robotSlamParamsFrom(pnh);
-    // The grid-mapping nodelet builds its own map along the published poses, which cannot
-    // follow a loop closure: this nodelet runs the paper's EKF front end until it owns the map.
-    params_.loop_closure = false;
+    if (!(params_.grid.resolution > 0)) {
+      NODELET_ERROR("map_resolution must be > 0 (got %f): using 0.05", params_.grid.resolution);
+      params_.grid.resolution = 0.05;
+    }
 
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
@@ -63,11 +75,13 @@ class LocalizationNodelet : public nodelet::Nodelet {
     pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
     odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 10);
     path_pub_ = nh.advertise<nav_msgs::Path>("trajectory", 1, true);
-    odom_sub_ = nh.subscribe("odom", 100, &LocalizationNodelet::onOdometry, this);
-    imu_sub_ = nh.subscribe("imu", 500, &LocalizationNodelet::onImu, this);
+    map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+    metadata_pub_ = nh.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
+    odom_sub_ = nh.subscribe("odom", 100, &SlamNodelet::onOdometry, this);
+    imu_sub_ = nh.subscribe("imu", 500, &SlamNodelet::onImu, this);
     scan_sub_.subscribe(nh, "scan", 20);
     scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(scan_sub_, *tf_buffer_, odom_frame_, 50, nh);
-    scan_filter_->registerCallback(&LocalizationNodelet::onScan, this);
+    scan_filter_->registerCallback(&SlamNodelet::onScan, this);
     scan_filter_->registerFailureCallback(
         [this](const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::filter_failure_reasons::FilterFailureReason) {
           std::lock_guard<std::mutex> lock(mutex_);
@@ -76,21 +90,18 @@ class LocalizationNodelet : public nodelet::Nodelet {
           NODELET_WARN_THROTTLE(5.0, "scan dropped: no transform %s -> %s at its stamp", odom_frame_.c_str(),
                                 msg->header.frame_id.c_str());
         });
-    path_.header.frame_id = map_frame_;
+    map_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / std::max(0.01, map_rate)), &SlamNodelet::onMapTimer, this);
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(nh.getNamespace());
-    diagnostics_->add("localization", this, &LocalizationNodelet::diagnose);
-    double period = 1.0;
-    pnh.param("diagnostics_period", period, period);
+    diagnostics_->add("slam", this, &SlamNodelet::diagnose);
     diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(std::max(0.1, period)),
                                             [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
   }
 
   void onOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
-    const Pose2D pose = poseFromMsg(msg->pose.pose);
-    if (!finite(pose)) {
+    if (!finite(poseFromMsg(msg->pose.pose))) {
       ++bad_odometry_;
       NODELET_WARN_THROTTLE(5.0, "odometry with a NaN/inf pose");
     }
@@ -129,12 +140,11 @@ class LocalizationNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     const double t = msg->header.stamp.toSec();
     if (last_scan_time_ && t < *last_scan_time_ - max_time_jump_) {
-      NODELET_WARN("time went back %.1f s (bag restarted?): resetting the filter and the map",
-                   *last_scan_time_ - t);
+      NODELET_WARN("time went back %.1f s (bag restarted?): starting a new map", *last_scan_time_ - t);
       robot_.reset();
       last_odom_.reset();
       gyro_.clear();
-      path_.poses.clear();
+      stamps_.clear();
       tf_buffer_->clear();
       ++resets_;
     }
@@ -169,20 +179,18 @@ class LocalizationNodelet : public nodelet::Nodelet {
       return;
     }
     const slam::ScanStep step = robot_->processScan(scanFromMsg(*msg));
-    ++scans_;
     if (!step.used) {
       ++rejected_;
       last_problem_ = step.reason;
       NODELET_WARN_THROTTLE(5.0, "scan rejected: %s", step.reason.c_str());
       return;
     }
-    matched_ += step.matched;
-    gated_ += step.gated;
-    if (step.odometry_jump) NODELET_WARN_THROTTLE(5.0, "odometry jumped between two scans: increment ignored");
-    publish(msg->header.stamp);
+    if (step.odometry_jump) NODELET_WARN_THROTTLE(5.0, "odometry jumped between two scans: the scan says the robot did not move");
+    stamps_.push_back(msg->header.stamp);
+    publishPose(msg->header.stamp);
   }
 
-  void publish(const ros::Time& stamp) {
+  void publishPose(const ros::Time& stamp) {  // mutex_ held
     const Pose2D pose = robot_->pose();
     const Eigen::Matrix3d cov = robot_->covariance();
     if (publish_tf_ && last_odom_) {
@@ -202,28 +210,77 @@ class LocalizationNodelet : public nodelet::Nodelet {
     odom_msg->child_frame_id = base_frame_;
     odom_msg->pose = pose_msg->pose;
     odom_pub_.publish(odom_msg);
-    geometry_msgs::PoseStamped p;
-    p.header = pose_msg->header;
-    p.pose = pose_msg->pose.pose;
-    path_.header.stamp = stamp;
-    path_.poses.push_back(p);
-    if (path_pub_.getNumSubscribers() > 0 || path_.poses.size() % 20 == 1) path_pub_.publish(path_);
+  }
+
+  // The map and the trajectory, when they changed: pieces taken under the lock, composed outside.
+  void onMapTimer(const ros::WallTimerEvent&) {
+    std::vector<slam::MapPart> parts;
+    std::vector<Pose2D> trajectory;
+    std::vector<ros::Time> stamps;
+    ros::Time stamp;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!robot_ || stamps_.empty() || robot_->mapVersion() == published_version_) return;
+      published_version_ = robot_->mapVersion();
+      parts = robot_->mapParts();
+      trajectory = robot_->trajectory();
+      stamps = stamps_;
+      stamp = stamps_.back();
+    }
+    auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
+    OccupancyGrid composed = slam::composeMap(parts);
+    std::swap(composed.data, grid->data);  // the cells move into the message, no copy
+    gridToMsg(composed, map_frame_, stamp, *grid, /*with_data=*/false);
+    metadata_pub_.publish(grid->info);
+    map_pub_.publish(nav_msgs::OccupancyGridConstPtr(grid));  // never modified after this line
+    publishTrajectory(trajectory, stamps);
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++maps_published_;
+    recent_addresses_.push_back(reinterpret_cast<uintptr_t>(grid.get()));
+    if (recent_addresses_.size() > 20) recent_addresses_.pop_front();
+  }
+
+  void publishTrajectory(const std::vector<Pose2D>& poses, const std::vector<ros::Time>& stamps) {
+    auto path = boost::make_shared<nav_msgs::Path>();
+    path->header.frame_id = map_frame_;
+    path->header.stamp = stamps.empty() ? ros::Time(0) : stamps.back();
+    for (size_t i = 0; i < poses.size() && i < stamps.size(); ++i) {
+      geometry_msgs::PoseStamped p;
+      p.header.frame_id = map_frame_;
+      p.header.stamp = stamps[i];
+      p.pose = poseToMsg(poses[i]);
+      path->poses.push_back(p);
+    }
+    path_pub_.publish(nav_msgs::Path::ConstPtr(path));
   }
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     std::lock_guard<std::mutex> lock(mutex_);
+    const slam::FrontEndStats s = robot_ ? robot_->stats() : slam::FrontEndStats{};
     if (!robot_) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for scans and tf: " + last_problem_);
-    else if (scans_ > 10 && matched_ < scans_ / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
+    else if (s.used > 10 && s.matched < s.used / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
     else status.summary(diagnostic_msgs::DiagnosticStatus::OK, "tracking");
-    status.add("scans", scans_);
-    status.add("scans matched", matched_);
-    status.add("matches gated out", gated_);
-    status.add("scans rejected", rejected_);
+    status.add("front end", robot_ ? robot_->name() : std::string("none yet"));
+    status.add("scans", s.used);
+    status.add("scans matched", s.matched);
+    status.add("matches gated out", s.gated);
+    status.add("scans rejected", rejected_ + s.rejected);
+    status.add("odometry jumps", s.odometry_jumps);
+    status.add("odometry slips", s.odometry_slips);
+    status.add("graph nodes", s.nodes);
+    status.add("loop closures accepted", s.loop_accepted);
+    status.add("loop closures dropped", s.loop_dropped);
+    status.add("optimisation failures", s.optimization_failures);
     status.add("imu samples rejected", imu_rejected_);
     status.add("odometry messages", odometry_messages_);
     status.add("odometry messages with NaN", bad_odometry_);
     status.add("resets (time jumps)", resets_);
-    status.add("last problem", last_problem_);
+    status.add("maps published", maps_published_);
+    status.add("last problem", s.last_problem.empty() ? last_problem_ : s.last_problem);
+    // For the zero-copy test: subscribers in this manager must receive one of these objects.
+    std::string addresses;
+    for (uintptr_t a : recent_addresses_) addresses += std::to_string(a) + " ";
+    status.add("recent map addresses", addresses);
   }
 
   std::mutex mutex_;
@@ -235,22 +292,24 @@ class LocalizationNodelet : public nodelet::Nodelet {
   std::unique_ptr<slam::FrontEnd> robot_;
   std::optional<Pose2D> last_odom_;
   std::optional<double> last_scan_time_;
+  std::vector<ros::Time> stamps_;  // of every scan the front end used, in order
   std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered
-  size_t odometry_messages_ = 0, bad_odometry_ = 0;
-  size_t scans_ = 0, matched_ = 0, gated_ = 0, rejected_ = 0, imu_rejected_ = 0, resets_ = 0;
+  uint64_t published_version_ = ~0ull;
+  size_t odometry_messages_ = 0, bad_odometry_ = 0, rejected_ = 0, imu_rejected_ = 0, resets_ = 0, maps_published_ = 0;
   std::string last_problem_;
-  nav_msgs::Path path_;
+  std::deque<uintptr_t> recent_addresses_;  // of the last 20 grids published
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
-  ros::Publisher pose_pub_, odom_pub_, path_pub_;
+  ros::Publisher pose_pub_, odom_pub_, path_pub_, map_pub_, metadata_pub_;
   ros::Subscriber odom_sub_, imu_sub_;
   message_filters::Subscriber<sensor_msgs::LaserScan> scan_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
+  ros::WallTimer map_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;
 };
 
 }  // namespace mrslam::nodelets
 
-PLUGINLIB_EXPORT_CLASS(mrslam::nodelets::LocalizationNodelet, nodelet::Nodelet)
+PLUGINLIB_EXPORT_CLASS(mrslam::nodelets::SlamNodelet, nodelet::Nodelet)
