@@ -18,6 +18,7 @@
 #include "mrslam/slam/ekf2d.h"
 #include "mrslam/slam/grid_mapper.h"
 #include "mrslam/slam/laser_scan.h"
+#include "mrslam/slam/odometry_calibration.h"
 #include "mrslam/slam/scan_matcher.h"
 
 namespace mrslam::slam {
@@ -39,6 +40,7 @@ struct SeedParams {
                                  // scores this much higher there than at the prediction
   double resolution = 0.05;      // m, of the likelihood grid
   double sigma = 0.05;           // m, likelihood kernel
+  double icp_correspondence = 0.15;  // m: ICP after a seed pairs points this close at first
 };
 
 // The pose graph back end (graph_slam.h).
@@ -52,6 +54,8 @@ struct GraphParams {
   double odometry_sigma_yaw = 0.003;     // rad, plus...
   double odometry_sigma_yaw_per_m = 0.005;  // ...rad per m travelled, plus...
   double odometry_sigma_yaw_per_rad = 0.01; // ...rad per rad turned
+  double weak_match_goodness = 0.6;      // a tracker match pairing fewer of its points is weak...
+  double weak_edge_factor = 10.0;        // ...and the motion through it gets this many times the sigmas
   // Loop closure search: a window around the predicted pose that grows with the distance
   // travelled since the last closure (a stand-in for the pose's uncertainty).
   double loop_min_travel = 10.0;         // m: only submaps finished at least this far back
@@ -71,6 +75,12 @@ struct GraphParams {
                                          // scores this share of the best: ambiguous
   double loop_sigma_xy = 0.05;           // m: noise of a loop closure
   double loop_sigma_yaw = 0.01;          // rad
+  double loop_confirm_xy = 0.3;          // m: a closure moving the graph further than this...
+  double loop_confirm_yaw = 0.05;        // rad: ...or turning it more (3 degrees) waits for a
+                                         // second closure that agrees with it...
+  double loop_consistency_xy = 0.2;      // m: ...within this...
+  double loop_consistency_yaw = 0.035;   // rad: ...and this (2 degrees)...
+  double loop_confirm_travel = 10.0;     // m: ...found within this much further travel
   double loop_outlier_chi2 = 25.0;       // a closure whose error at the optimum exceeds this
                                          // (squared sigmas) is dropped as wrong
   std::string solver = "ceres";          // or "mrpt"
@@ -82,6 +92,7 @@ struct RobotSlamParams {
   ScanMatcherParams matcher;
   GridMapperParams grid;
   SeedParams seed;
+  OdometryCalibrationParams odometry_calibration;
   GraphParams graph;
   bool loop_closure = true;       // false: the paper's EKF front end alone
   bool use_scan_matching = true;
@@ -119,6 +130,9 @@ struct ScanStep {
   bool new_node = false;        // the scan became a pose-graph node
   int loop_closures = 0;        // loop closures accepted at this scan
   bool map_moved = false;       // an optimisation moved the map
+  Pose2D seed;                  // the correlative seed (when seeded) and the prediction it
+  Pose2D prediction;            // replaced, both base_link in the tracker's frame
+  double seed_score = 0, prediction_score = 0;
   ScanMatch match;
 };
 
@@ -128,6 +142,7 @@ struct FrontEndStats {
   size_t odometry_doubted = 0, odometry_jumps = 0, odometry_slips = 0;
   size_t nodes = 0, submaps = 0;
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
+  size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed
   size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;
   size_t optimizations = 0, optimization_failures = 0;
   std::string last_problem;

@@ -6,7 +6,10 @@
 // and each closure found becomes an edge with a robust loss. The graph is optimised (Ceres by
 // default) whenever closures are added; a closure whose error at the optimum exceeds
 // loop_outlier_chi2 is dropped and the graph optimised again, so one wrong closure cannot wreck
-// the map. A failed optimisation keeps the last good poses and says why (stats().last_problem).
+// the map. A closure that would move the graph further than loop_confirm_xy / _yaw from what
+// it believes is held until a second closure agrees with it (pairwise consistency through the
+// tracker's motion between the two nodes) and dropped if none does within loop_confirm_travel.
+// A failed optimisation keeps the last good poses and says why (stats().last_problem).
 //
 // The map: scans go into submaps (submap.h) in their anchor node's frame; the map is the
 // submaps composed at their anchors' optimised poses, so a correction moves submaps rather than
@@ -55,6 +58,11 @@ class GraphSlam : public FrontEnd {
     double travel = 0;    // m along the trajectory
     Points2 points;       // returns in base_link, thinned
   };
+  struct Closure {         // a loop closure: node `to` at `measurement` in the frame of `from`
+    int from = 0, to = 0;
+    Pose2D measurement;
+    double travel = 0;     // when it was found
+  };
   struct ScanRef {        // a scan's pose is poses_[node] o offset
     int node = 0;
     Pose2D offset;
@@ -64,7 +72,13 @@ class GraphSlam : public FrontEnd {
   void addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step);
   Submap& activeSubmap();
   void closeLoops(int node, ScanStep& step);
-  PoseGraphEdge odometryEdge(int from, int to) const;
+  // The closures to add now: `c` itself when it agrees with the graph, `c` and an earlier
+  // pending closure when the two agree with each other, else none (`c` waits).
+  std::vector<Closure> admit(const Closure& c);
+  bool agreesWithGraph(const Closure& c) const;
+  bool consistent(const Closure& a, const Closure& b) const;
+  void expirePending();
+  PoseGraphEdge odometryEdge(int from, int to, bool weak) const;
   PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
   // Optimises; drops closures the optimum disagrees with. True when the poses moved.
   bool optimize();
@@ -78,7 +92,9 @@ class GraphSlam : public FrontEnd {
   std::vector<PoseGraphEdge> edges_;
   std::vector<std::unique_ptr<Submap>> submaps_;
   std::vector<ScanRef> scans_;
+  std::vector<Closure> pending_;  // closures waiting for a consistent partner
   double travel_ = 0;
+  bool weak_since_node_ = false;  // a scan since the last node was matched poorly or not at all
   Pose2D last_tracker_pose_;
   uint64_t map_version_ = 0;
   FrontEndStats stats_;

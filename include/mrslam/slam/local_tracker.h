@@ -11,6 +11,7 @@
 
 #include "mrslam/slam/correlative_matcher.h"
 #include "mrslam/slam/front_end.h"
+#include "mrslam/slam/odometry_calibration.h"
 
 namespace mrslam::slam {
 
@@ -28,6 +29,7 @@ class LocalTracker {
   const Ekf2D& filter() const { return ekf_; }
   const Pose2D& laserInBase() const { return laser_in_base_; }
   size_t scansTracked() const { return scans_; }
+  const OdometryCalibration& calibration() const { return calibration_; }
 
  private:
   // The best correlative match in a window around `center`, on the local map.
@@ -41,6 +43,7 @@ class LocalTracker {
   Pose2D laser_in_base_;
   Ekf2D ekf_;
   ScanToMapMatcher matcher_;
+  OdometryCalibration calibration_;
   std::unique_ptr<CorrelativeMatcher> seed_matcher_;  // of the local map, rebuilt when it changed
   uint64_t seed_version_ = 0;
   Pose2D odometry_;  // accumulated since the last scan

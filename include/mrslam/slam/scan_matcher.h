@@ -53,8 +53,11 @@ class PointCloudAligner {
 
   void setReference(const std::vector<std::pair<float, float>>& reference);
   bool empty() const;
-  // Aligns `points` (in their own frame) to the reference, starting from `guess`.
-  ScanMatch align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess) const;
+  // Aligns `points` (in their own frame) to the reference, starting from `guess`. With
+  // `max_correspondence` > 0, pairs start at that distance instead of the configured one (a
+  // guess from a correlative search is already within a few cells).
+  ScanMatch align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess,
+                  double max_correspondence = 0) const;
 
  private:
   struct Impl;
@@ -67,8 +70,9 @@ class ScanToMapMatcher {
   ScanToMapMatcher(const ScanMatcherParams& params, const Pose2D& laser_in_base);
 
   bool empty() const { return keys_.empty(); }
-  // Aligns the scan to the local map, starting from `guess` (base_link in map).
-  ScanMatch match(const LaserScan& scan, const Pose2D& guess) const;
+  // Aligns the scan to the local map, starting from `guess` (base_link in map); see
+  // PointCloudAligner::align for `max_correspondence`.
+  ScanMatch match(const LaserScan& scan, const Pose2D& guess, double max_correspondence = 0) const;
   // Adds the scan at `pose` as a key scan when it is far enough from the last one (or the
   // map is empty). Returns true when it was added.
   bool addIfKey(const LaserScan& scan, const Pose2D& pose);

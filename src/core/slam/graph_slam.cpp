@@ -25,6 +25,8 @@ void GraphSlam::reset() {
   submaps_.clear();
   scans_.clear();
   travel_ = 0;
+  weak_since_node_ = false;
+  pending_.clear();
   last_tracker_pose_ = Pose2D{};
   stats_ = FrontEndStats{};
   ++map_version_;
@@ -34,6 +36,10 @@ ScanStep GraphSlam::processScan(const LaserScan& scan) {
   ScanStep step = tracker_.track(scan);
   countStep(step, stats_);
   if (!step.used) return step;
+  // How much the tracker's motion since the last node can be trusted.
+  const bool weak = !step.matched || step.odometry_jump || step.odometry_slipped ||
+                    step.match.goodness < params_.graph.weak_match_goodness;
+  weak_since_node_ = weak_since_node_ || weak;
   const Pose2D tracker_pose = tracker_.filter().pose();
   if (!nodes_.empty())
     travel_ += std::hypot(tracker_pose.x - last_tracker_pose_.x, tracker_pose.y - last_tracker_pose_.y);
@@ -68,7 +74,8 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanS
     poses_.push_back(poses_.back().compose(motion));
   }
   nodes_.push_back(std::move(node));
-  if (n > 0) edges_.push_back(odometryEdge(n - 1, n));
+  if (n > 0) edges_.push_back(odometryEdge(n - 1, n, weak_since_node_));
+  weak_since_node_ = false;
   if (submaps_.empty() || activeSubmap().nodes() >= params_.graph.submap_nodes) {
     if (!submaps_.empty()) activeSubmap().finish(travel_);
     submaps_.push_back(std::make_unique<Submap>(n, params_.grid, tracker_.laserInBase()));
@@ -88,16 +95,64 @@ void GraphSlam::closeLoops(int n, ScanStep& step) {
   const LoopQuery query{nodes_[n].points, poses_[n], travel_,
                         graphDistances(static_cast<int>(nodes_.size()), edges_, n, loop_length, closer_.saturationDistance())};
   const std::vector<LoopClosure> closures = closer_.search(query, submaps_, anchor_poses, stats_);
-  if (closures.empty()) return;
+  expirePending();
+  int accepted = 0;
   for (const LoopClosure& c : closures) {
     // Relative to the submap's node nearest to the match: the submap holds the tracker's drift
     // since its anchor, the nearest node only what drifted between it and the match.
     const auto& [near, near_in_anchor] = submaps_[c.submap]->nearestNode(c.pose.x, c.pose.y);
-    edges_.push_back(loopEdge(near, n, near_in_anchor.inverse().compose(c.pose)));
+    const Closure closure{near, n, near_in_anchor.inverse().compose(c.pose), travel_};
+    for (const Closure& confirmed : admit(closure)) {
+      edges_.push_back(loopEdge(confirmed.from, confirmed.to, confirmed.measurement));
+      ++accepted;
+    }
   }
-  stats_.loop_accepted += closures.size();
-  step.loop_closures = static_cast<int>(closures.size());
+  if (accepted == 0) return;
+  stats_.loop_accepted += accepted;
+  step.loop_closures = accepted;
   step.map_moved = optimize();
+}
+
+bool GraphSlam::agreesWithGraph(const Closure& c) const {
+  const Pose2D predicted = poses_[c.from].inverse().compose(poses_[c.to]);
+  const Pose2D correction = predicted.inverse().compose(c.measurement);
+  return std::hypot(correction.x, correction.y) <= params_.graph.loop_confirm_xy &&
+         std::abs(correction.yaw) <= params_.graph.loop_confirm_yaw;
+}
+
+bool GraphSlam::consistent(const Closure& a, const Closure& b) const {
+  // Where each closure puts its node in the map frame; the tracker's motion between the two
+  // nodes must join those places.
+  const Pose2D a_to = poses_[a.from].compose(a.measurement);
+  const Pose2D b_to = poses_[b.from].compose(b.measurement);
+  const Pose2D motion = nodes_[a.to].tracker_pose.inverse().compose(nodes_[b.to].tracker_pose);
+  const Pose2D gap = a_to.compose(motion).inverse().compose(b_to);
+  return std::hypot(gap.x, gap.y) <= params_.graph.loop_consistency_xy &&
+         std::abs(gap.yaw) <= params_.graph.loop_consistency_yaw;
+}
+
+std::vector<GraphSlam::Closure> GraphSlam::admit(const Closure& c) {
+  // A closure close to what the graph already believes is accepted; one that would move the
+  // graph a lot waits for a second closure that agrees with it (a wrong match in a corridor or a
+  // repeated room rarely finds a consistent partner).
+  if (agreesWithGraph(c)) return {c};
+  for (auto it = pending_.begin(); it != pending_.end(); ++it)
+    if (consistent(*it, c)) {
+      std::vector<Closure> both{*it, c};
+      pending_.erase(it);
+      return both;
+    }
+  pending_.push_back(c);
+  ++stats_.loop_pending;
+  return {};
+}
+
+void GraphSlam::expirePending() {
+  const size_t before = pending_.size();
+  pending_.erase(std::remove_if(pending_.begin(), pending_.end(),
+                                [&](const Closure& c) { return travel_ - c.travel > params_.graph.loop_confirm_travel; }),
+                 pending_.end());
+  stats_.loop_unconfirmed += before - pending_.size();
 }
 
 void GraphSlam::addLoopClosure(int from_node, int to_node, const Pose2D& measurement) {
@@ -106,12 +161,15 @@ void GraphSlam::addLoopClosure(int from_node, int to_node, const Pose2D& measure
   optimize();
 }
 
-PoseGraphEdge GraphSlam::odometryEdge(int from, int to) const {
+PoseGraphEdge GraphSlam::odometryEdge(int from, int to, bool weak) const {
   const GraphParams& g = params_.graph;
   const Pose2D motion = nodes_[from].tracker_pose.inverse().compose(nodes_[to].tracker_pose);
   const double d = std::hypot(motion.x, motion.y), turn = std::abs(motion.yaw);
-  const double sxy = g.odometry_sigma_xy + g.odometry_sigma_xy_per_m * d;
-  const double syaw = g.odometry_sigma_yaw + g.odometry_sigma_yaw_per_m * d + g.odometry_sigma_yaw_per_rad * turn;
+  // A stretch the tracker did not match well (or where the odometry jumped or slipped) may be
+  // wrong: loop closures must be able to bend it.
+  const double scale = weak ? g.weak_edge_factor : 1.0;
+  const double sxy = scale * (g.odometry_sigma_xy + g.odometry_sigma_xy_per_m * d);
+  const double syaw = scale * (g.odometry_sigma_yaw + g.odometry_sigma_yaw_per_m * d + g.odometry_sigma_yaw_per_rad * turn);
   PoseGraphEdge e;
   e.from = from, e.to = to, e.measurement = motion;
   e.information = Eigen::Vector3d(1 / (sxy * sxy), 1 / (sxy * sxy), 1 / (syaw * syaw)).asDiagonal();

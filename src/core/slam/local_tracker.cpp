@@ -5,7 +5,11 @@
 namespace mrslam::slam {
 
 LocalTracker::LocalTracker(const RobotSlamParams& params, const Pose2D& laser_in_base)
-    : params_(params), laser_in_base_(laser_in_base), ekf_(params.motion), matcher_(params.matcher, laser_in_base) {
+    : params_(params),
+      laser_in_base_(laser_in_base),
+      ekf_(params.motion),
+      matcher_(params.matcher, laser_in_base),
+      calibration_(params.odometry_calibration) {
   reset();
 }
 
@@ -14,6 +18,7 @@ void LocalTracker::reset() {
   ekf_.reset(Pose2D{}, Eigen::Matrix3d::Identity() * 1e-9);
   matcher_.clear();
   seed_matcher_.reset();
+  calibration_.reset();
   odometry_ = Pose2D{};
   gyro_yaw_ = gyro_var_ = 0;
   have_gyro_ = false;
@@ -68,7 +73,8 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     return step;
   }
   step.used = true;
-  const Pose2D u = odometry_;
+  const Pose2D raw = odometry_;
+  const Pose2D u = calibration_.correct(raw);
   odometry_ = Pose2D{};
   step.odometry_doubted = scans_ > 0 && doubted(u, scan.stamp);
   last_stamp_ = scan.stamp;
@@ -104,12 +110,16 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
           ekf_.reset(still, before_cov + Eigen::Matrix3d::Identity() * 0.01);
         }
       }
+      step.prediction = guess;
+      step.prediction_score = seed_matcher_->grid().score(transformPoints(points, guess));
       if (seed.found) {
         guess = seed.pose;
         step.seeded = true;
+        step.seed = seed.pose;
+        step.seed_score = seed.score;
       }
     }
-    step.match = matcher_.match(scan, guess);
+    step.match = matcher_.match(scan, guess, step.seeded ? sp.icp_correspondence : 0.0);
     if (step.match.ok) {
       // A doubted prediction is worthless as a prior: let the match decide.
       if (step.odometry_doubted) ekf_.reset(ekf_.pose(), ekf_.covariance() + Eigen::Matrix3d::Identity());
@@ -125,6 +135,9 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       step.gated = !step.matched;
     }
   }
+  if (scans_ > 0 && step.matched && !step.odometry_jump && !step.odometry_slipped &&
+      step.match.goodness >= params_.graph.weak_match_goodness)
+    calibration_.learn(raw, before.inverse().compose(ekf_.pose()));
   matcher_.addIfKey(scan, ekf_.pose());
   ++scans_;
   return step;

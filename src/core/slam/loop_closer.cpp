@@ -57,6 +57,15 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const LoopQuery& query, int in
     ++stats.loop_rejected_score;
     return std::nullopt;
   }
+  // The best pose on the window's edge says the peak lies beyond it: the window did not hold
+  // the answer, and the best inside it is only the best of the wrong poses.
+  const Pose2D offset = search.center.inverse().compose(best.pose);
+  const double res = params_.loop_resolution;
+  if (std::abs(best.pose.x - search.center.x) > xy - 1.5 * res || std::abs(best.pose.y - search.center.y) > xy - 1.5 * res ||
+      std::abs(offset.yaw) > yaw - 0.02) {
+    ++stats.loop_rejected_score;
+    return std::nullopt;
+  }
   const double rival_floor = params_.loop_max_rival * best.score;
   const CorrelativeMatch rival =
       m.correlative->match(query.points, search, rival_floor, &best.pose, kRivalXy, kRivalYaw);
@@ -74,6 +83,11 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const LoopQuery& query, int in
   if (score < params_.loop_min_score) {
     ++stats.loop_rejected_icp;
     return std::nullopt;
+  }
+  if (getenv("X_DBG")) {
+    double rs = 0; { CorrelativeMatch r2 = m.correlative->match(query.points, search, 0.0, &best.pose, kRivalXy, kRivalYaw); rs = r2.score; }
+    fprintf(stderr, "LC submap %d travel %.1f dist %.1f win %.2f/%.1f best %.3f rival %.3f final %.3f pts %zu shift %.2f %.2f %.1f\n", index, query.travel, distance, xy, yaw*57.3, best.score, rs, score, query.points.size(),
+      refined.pose.x - search.center.x, refined.pose.y - search.center.y, (refined.pose.yaw - search.center.yaw)*57.3);
   }
   return LoopClosure{index, refined.pose, score, rival.found ? rival.score : 0.0};
 }

@@ -36,7 +36,8 @@ void PointCloudAligner::setReference(const std::vector<std::pair<float, float>>&
 
 bool PointCloudAligner::empty() const { return impl_->reference.empty(); }
 
-ScanMatch PointCloudAligner::align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess) const {
+ScanMatch PointCloudAligner::align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess,
+                                   double max_correspondence) const {
   ScanMatch result;
   if (empty()) {
     result.reason = "empty reference";
@@ -55,6 +56,7 @@ ScanMatch PointCloudAligner::align(const std::vector<std::pair<float, float>>& p
       params_.correspondence_points > 0
           ? static_cast<uint32_t>(std::max<size_t>(1, (current.size() + params_.correspondence_points - 1) / params_.correspondence_points))
           : 1;
+  impl_->icp.options.thresholdDist = max_correspondence > 0 ? max_correspondence : params_.max_correspondence;
   const auto pdf = impl_->icp.Align(&impl_->reference, &current, mrpt::poses::CPose2D(guess.x, guess.y, guess.yaw), info);
   mrpt::poses::CPosePDFGaussian gaussian;
   gaussian.copyFrom(*pdf);
@@ -93,14 +95,14 @@ std::vector<std::pair<float, float>> ScanToMapMatcher::localPoints() const {
   return points;
 }
 
-ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess) const {
+ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess, double max_correspondence) const {
   if (keys_.empty()) {
     ScanMatch result;
     result.reason = "empty local map";
     return result;
   }
   // Dense scanners (0.35 degree beams) give many more points than ICP needs.
-  return aligner_.align(thinPoints(scanPoints(scan, laser_in_base_), params_.min_point_spacing), guess);
+  return aligner_.align(thinPoints(scanPoints(scan, laser_in_base_), params_.min_point_spacing), guess, max_correspondence);
 }
 
 bool ScanToMapMatcher::addIfKey(const LaserScan& scan, const Pose2D& pose) {

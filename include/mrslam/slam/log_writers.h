@@ -1,0 +1,24 @@
+// Writing robot logs, for benchmarks that feed other tools the very data mrslam reads:
+//   - decimate(): the same log at a slower scan rate (every k-th scan), the odometry of the
+//     dropped scans chained into the next kept one, so the raw odometry's error is that of the
+//     full log (the corrected CARMEN logs re-anchor odometry at every scan: dropping lines
+//     would lose motion);
+//   - writeCarmenLog(): a CARMEN text log whose ODOM lines give exactly the records' odometry
+//     (one anchor line with ipc time stamp 0 after each FLASER, as in the corrected logs, and one
+//     line before the next FLASER), FLASER lines carrying the reference pose where known;
+//   - writeMrptRawlog(): an MRPT rawlog (actions + sensory frames) with the same scans (beam
+//     layout as mrslam reads it) and odometry, for MRPT's icp-slam and rbpf-slam.
+// Each throws LogError naming the file when it cannot be written completely.
+#pragma once
+
+#include <string>
+
+#include "mrslam/slam/robot_log.h"
+
+namespace mrslam::slam {
+
+RobotLog decimate(const RobotLog& log, int every);
+void writeCarmenLog(const RobotLog& log, const std::string& path);
+void writeMrptRawlog(const RobotLog& log, const std::string& path);
+
+}  // namespace mrslam::slam

@@ -1,0 +1,108 @@
+#include "mrslam/slam/log_writers.h"
+
+#include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/obs/CActionCollection.h>
+#include <mrpt/obs/CActionRobotMovement2D.h>
+#include <mrpt/obs/CObservation2DRangeScan.h>
+#include <mrpt/obs/CSensoryFrame.h>
+#include <mrpt/serialization/CArchive.h>
+
+#include <cstdio>
+#include <memory>
+
+namespace mrslam::slam {
+
+RobotLog decimate(const RobotLog& log, int every) {
+  if (every < 1) throw LogError(log.path + ": decimation must keep every k-th scan with k >= 1");
+  RobotLog out = log;
+  out.records.clear();
+  Pose2D since_kept;
+  for (size_t k = 0; k < log.records.size(); ++k) {
+    since_kept = since_kept.compose(log.records[k].odometry);
+    if (k % every != 0) continue;
+    LogRecord record = log.records[k];
+    record.odometry = out.records.empty() ? Pose2D{} : since_kept;
+    since_kept = Pose2D{};
+    out.records.push_back(std::move(record));
+  }
+  return out;
+}
+
+namespace {
+
+struct FileCloser {
+  void operator()(FILE* f) const { if (f) std::fclose(f); }
+};
+
+}  // namespace
+
+void writeCarmenLog(const RobotLog& log, const std::string& path) {
+  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "w"));
+  if (!file) throw LogError(path + ": cannot write");
+  FILE* f = file.get();
+  std::fprintf(f, "# written by mrslam from %s (%zu scans)\n", log.path.c_str(), log.records.size());
+  std::fprintf(f, "PARAM robot_frontlaser_offset %.6f nohost 0\n", log.laser_in_base.x);
+  Pose2D anchor;
+  for (size_t k = 0; k < log.records.size(); ++k) {
+    const LogRecord& r = log.records[k];
+    const double t = r.scan.stamp;
+    const double odom_t = t != 0.0 ? t : 1e-6;  // an ODOM time stamp of 0 marks a re-anchor
+    if (k > 0) {  // the odometry since the previous scan, relative to its anchor line
+      const Pose2D reached = anchor.compose(r.odometry);
+      std::fprintf(f, "ODOM %.6f %.6f %.6f 0 0 0 %.6f nohost %.6f\n", reached.x, reached.y, reached.yaw, odom_t, t);
+    }
+    const Pose2D& p = r.has_reference ? r.reference : Pose2D{};
+    std::fprintf(f, "FLASER %zu", r.scan.ranges.size());
+    for (float range : r.scan.ranges) std::fprintf(f, " %.3f", std::isfinite(range) ? range : r.scan.range_max);
+    std::fprintf(f, " %.6f %.6f %.6f %.6f %.6f %.6f %.6f nohost %.6f\n", p.x, p.y, p.yaw, p.x, p.y, p.yaw, t, t);
+    anchor = p;
+    std::fprintf(f, "ODOM %.6f %.6f %.6f 0 0 0 0 nohost %.6f\n", anchor.x, anchor.y, anchor.yaw, t);
+  }
+  if (std::ferror(f) || std::fflush(f) != 0) throw LogError(path + ": write failed");
+  if (std::fclose(file.release()) != 0) throw LogError(path + ": write failed");
+}
+
+void writeMrptRawlog(const RobotLog& log, const std::string& path) {
+  try {
+    mrpt::io::CFileGZOutputStream stream(path);
+    auto archive = mrpt::serialization::archiveFrom(stream);
+    for (size_t k = 0; k < log.records.size(); ++k) {
+      const LogRecord& r = log.records[k];
+      const mrpt::Clock::time_point stamp = mrpt::Clock::fromDouble(r.scan.stamp);
+      mrpt::obs::CActionCollection actions;
+      mrpt::obs::CActionRobotMovement2D move;
+      move.computeFromOdometry(mrpt::poses::CPose2D(r.odometry.x, r.odometry.y, r.odometry.yaw),
+                               mrpt::obs::CActionRobotMovement2D::TMotionModelOptions());
+      move.timestamp = stamp;
+      actions.insert(move);
+      archive << actions;
+
+      const LaserScan& s = r.scan;
+      auto scan = std::make_shared<mrpt::obs::CObservation2DRangeScan>();
+      const size_t n = s.ranges.size();
+      const double span = s.angle_increment * (n > 0 ? n - 1 : 0);
+      // MRPT spreads the rays over an aperture centred on the sensor's x axis.
+      scan->aperture = static_cast<float>(std::abs(span));
+      scan->rightToLeft = span > 0;
+      scan->maxRange = static_cast<float>(s.range_max);
+      scan->resizeScan(n);
+      for (size_t i = 0; i < n; ++i) {
+        const float range = s.ranges[i];
+        const bool valid = std::isfinite(range) && range >= s.range_min && range < s.range_max;
+        scan->setScanRange(i, valid ? range : 0.0f);
+        scan->setScanRangeValidity(i, valid);
+      }
+      const Pose2D sensor = log.laser_in_base.compose(Pose2D{0, 0, s.angle_min + span / 2});
+      scan->sensorPose = mrpt::poses::CPose3D(sensor.x, sensor.y, 0, sensor.yaw, 0, 0);
+      scan->timestamp = stamp;
+      scan->sensorLabel = "LASER";
+      mrpt::obs::CSensoryFrame frame;
+      frame.insert(scan);
+      archive << frame;
+    }
+  } catch (const std::exception& e) {
+    throw LogError(path + ": cannot write rawlog (" + std::string(e.what()).substr(0, 200) + ")");
+  }
+}
+
+}  // namespace mrslam::slam

@@ -1,0 +1,64 @@
+// mrslam_convert_log: a robot log as mrslam reads it, written again, for benchmarks that feed
+// other tools the same data (MRPT's icp-slam and rbpf-slam read rawlogs) or a slower scanner.
+//
+//   mrslam_convert_log IN OUT [--every K]
+//
+// IN: any log mrslam_slam_log reads. OUT: .log (CARMEN text) or .rawlog (MRPT). --every K keeps
+// every K-th scan, the odometry of the dropped ones chained into the next kept scan (the raw
+// odometry's error stays that of the full log). Exit 2 on bad input or a failed write.
+#include <iostream>
+#include <string>
+
+#include "mrslam/slam/log_writers.h"
+
+namespace {
+int fail(const std::string& message) {
+  std::cerr << "mrslam_convert_log: " << message << "\n";
+  return 2;
+}
+bool endsWith(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string usage = "usage: mrslam_convert_log IN OUT.{log,rawlog} [--every K]";
+  std::string in, out;
+  int every = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--every") {
+      if (i + 1 >= argc) return fail("--every needs a number\n" + usage);
+      try {
+        size_t used = 0;
+        every = std::stoi(argv[++i], &used);
+        if (used != std::string(argv[i]).size() || every < 1) throw std::invalid_argument("");
+      } catch (...) {
+        return fail("--every needs a whole number >= 1, got '" + std::string(argv[i]) + "'");
+      }
+    } else if (a == "-h" || a == "--help") {
+      std::cout << usage << "\n";
+      return 0;
+    } else if (!a.empty() && a[0] == '-') {
+      return fail("unknown option " + a + "\n" + usage);
+    } else if (in.empty()) {
+      in = a;
+    } else if (out.empty()) {
+      out = a;
+    } else {
+      return fail("too many arguments\n" + usage);
+    }
+  }
+  if (in.empty() || out.empty()) return fail("missing arguments\n" + usage);
+  if (!endsWith(out, ".log") && !endsWith(out, ".rawlog")) return fail(out + ": output must end in .log or .rawlog");
+  try {
+    mrslam::slam::RobotLog log = mrslam::slam::readRobotLog(in);
+    for (const auto& w : log.warnings) std::cerr << "warning: " << w << "\n";
+    if (every > 1) log = mrslam::slam::decimate(log, every);
+    if (endsWith(out, ".log")) mrslam::slam::writeCarmenLog(log, out);
+    else mrslam::slam::writeMrptRawlog(log, out);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  return 0;
+}
