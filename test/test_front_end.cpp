@@ -12,6 +12,7 @@
 #include "mrslam/slam/robot_params.h"
 #include "mrslam/slam/ekf_front_end.h"
 #include "mrslam/slam/graph_slam.h"
+#include "mrslam/slam/log_writers.h"
 #include "mrslam/slam/scan_matcher.h"
 #include "mrslam/slam/simulated_gyro.h"
 #include "test_data.h"
@@ -282,9 +283,45 @@ TEST(SlamLogCli, RunsARealLogAndRejectsBadInputWithExitTwo) {
   EXPECT_NE(no_reference.output.find("reference"), std::string::npos) << no_reference.output;
   const std::string bad = dir + "/truncated.log";
   std::ofstream(bad) << "FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.5 host 1.5\nFLASER 3 1.0\n";
+  // Partial input is not a quiet success: exit 3 naming the line, unless --allow-partial.
   const auto truncated = test::runCommand(bin + " " + bad + " --trajectory " + dir + "/t.txt");
-  EXPECT_EQ(truncated.status, 0) << truncated.output;
+  EXPECT_EQ(truncated.status, 3) << truncated.output;
   EXPECT_NE(truncated.output.find(bad + ":2: malformed FLASER line skipped"), std::string::npos) << truncated.output;
+  EXPECT_NE(truncated.output.find("partial input"), std::string::npos) << truncated.output;
+  EXPECT_EQ(test::runCommand(bin + " " + bad + " --allow-partial --trajectory " + dir + "/t.txt").status, 0);
+  const auto window = test::runCommand(bin + " " + test::dataPath("logs/mines/exp1.dat") + " --window 5:1 --trajectory " + dir + "/t.txt");
+  EXPECT_EQ(window.status, 2) << window.output;
+  EXPECT_NE(window.output.find("--window 5:1"), std::string::npos) << window.output;
+}
+
+// A real log whose time stamps were printed with too few digits (all scans share one stamp):
+// the run says so once, uses no rule that needs time, and tracks as well as with the stamps.
+TEST(SlamLogCli, EqualTimeStampsAreReportedAndTheRunFollowsTheLines) {
+  const std::string bin = MRSLAM_SLAM_LOG_BIN;
+  const std::string dir = ::testing::TempDir();
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(150);
+  const std::string good = dir + "/intel150.log", coarse = dir + "/intel150_coarse.log";
+  writeCarmenLog(excerpt, good);
+  for (LogRecord& r : excerpt.records) r.scan.stamp = 1.07e9;
+  writeCarmenLog(excerpt, coarse);
+  ASSERT_FALSE(checkTimeStamps(readRobotLog(coarse)).usable);
+  ASSERT_TRUE(checkTimeStamps(readRobotLog(good)).usable);
+  const auto run = test::runCommand(bin + " " + coarse + " --trajectory " + dir + "/coarse.txt");
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("all 150 scans have the same time stamp"), std::string::npos) << run.output;
+  ASSERT_EQ(test::runCommand(bin + " " + good + " --trajectory " + dir + "/good.txt").status, 0);
+  std::vector<Pose2D> reference;
+  for (const LogRecord& r : excerpt.records) reference.push_back(r.reference);
+  auto errorOf = [&](const std::string& path) {
+    std::vector<Pose2D> estimate;
+    for (const auto& e : bench::readIndexedTrajectory(path)) estimate.push_back(e.pose);
+    EXPECT_EQ(estimate.size(), reference.size()) << path;
+    return bench::relationError(estimate, reference, bench::randomPairs(reference.size(), 300, 1)).trans_mean;
+  };
+  const double with_time = errorOf(dir + "/good.txt"), without = errorOf(dir + "/coarse.txt");
+  std::printf("Intel 150 scans, global error: stamps %.3f m, all stamps equal %.3f m\n", with_time, without);
+  EXPECT_LT(without, with_time + 0.05);
 }
 
 }  // namespace

@@ -53,14 +53,20 @@ int main(int argc, char** argv) {
       const std::string arg = argv[i];
       const size_t eq = arg.find('=');
       if (eq == std::string::npos) throw std::runtime_error("expected LABEL=TRAJECTORY, got " + arg);
-      const auto trajectory = bench::readTrajectory(arg.substr(eq + 1));
-      // Match by time stamp, in order: scans the run did not use drop out of both sides.
+      const auto trajectory = bench::readIndexedTrajectory(arg.substr(eq + 1));
+      // Match by scan index when the trajectory has one (time stamps need not be unique), else
+      // by time stamp, in order: scans the run did not use drop out of both sides.
       std::vector<Pose2D> estimate, matched_reference;
       size_t k = 0;
-      for (const auto& [stamp, pose] : trajectory) {
-        while (k < log.records.size() && log.records[k].scan.stamp != stamp) ++k;
-        if (k == log.records.size()) throw std::runtime_error(arg + ": time stamp " + std::to_string(stamp) + " not in the log (or out of order)");
-        estimate.push_back(pose);
+      for (const bench::TrajectoryEntry& e : trajectory) {
+        if (e.scan >= 0) {
+          if (static_cast<size_t>(e.scan) >= log.records.size()) throw std::runtime_error(arg + ": scan " + std::to_string(e.scan) + " not in the log");
+          k = static_cast<size_t>(e.scan);
+        } else {
+          while (k < log.records.size() && log.records[k].scan.stamp != e.stamp) ++k;
+          if (k == log.records.size()) throw std::runtime_error(arg + ": time stamp " + std::to_string(e.stamp) + " not in the log (or out of order)");
+        }
+        estimate.push_back(e.pose);
         matched_reference.push_back(reference[k++]);
       }
       if (estimate.size() < log.records.size())

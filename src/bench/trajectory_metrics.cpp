@@ -63,21 +63,28 @@ Pose2D fitRigid(const std::vector<Pose2D>& from, const std::vector<Pose2D>& to) 
   return {tx - (c * fx - s * fy), ty - (s * fx + c * fy), yaw};
 }
 
-std::vector<std::pair<double, Pose2D>> readTrajectory(const std::string& path) {
+std::vector<TrajectoryEntry> readIndexedTrajectory(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open");
-  std::vector<std::pair<double, Pose2D>> out;
+  std::vector<TrajectoryEntry> out;
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {
     ++number;
     if (line.empty() || line[0] == '#') continue;
     std::istringstream fields(line);
-    double t;
-    Pose2D p;
-    if (!(fields >> t >> p.x >> p.y >> p.yaw)) throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'timestamp x y yaw'");
-    out.emplace_back(t, p);
+    TrajectoryEntry e;
+    if (!(fields >> e.stamp >> e.pose.x >> e.pose.y >> e.pose.yaw))
+      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'timestamp x y yaw [scan]'");
+    if (!(fields >> e.scan)) e.scan = -1;
+    out.push_back(e);
   }
+  return out;
+}
+
+std::vector<std::pair<double, Pose2D>> readTrajectory(const std::string& path) {
+  std::vector<std::pair<double, Pose2D>> out;
+  for (const TrajectoryEntry& e : readIndexedTrajectory(path)) out.emplace_back(e.stamp, e.pose);
   return out;
 }
 

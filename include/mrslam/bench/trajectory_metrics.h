@@ -30,7 +30,15 @@ std::vector<std::pair<size_t, size_t>> randomPairs(size_t n, size_t count, unsig
 // no scale): where a trajectory's frame sits in the reference's frame. Needs >= 2 poses.
 Pose2D fitRigid(const std::vector<Pose2D>& from, const std::vector<Pose2D>& to);
 
-// Reads "timestamp x y yaw" lines; throws std::runtime_error naming the line on bad input.
+// Reads "timestamp x y yaw [scan]" lines (scan: the index of the scan in its log, written by
+// mrslam_slam_log; -1 where absent); throws std::runtime_error naming the line on bad input.
+struct TrajectoryEntry {
+  double stamp = 0;
+  Pose2D pose;
+  long scan = -1;
+};
+std::vector<TrajectoryEntry> readIndexedTrajectory(const std::string& path);
+// The same as (stamp, pose) pairs.
 std::vector<std::pair<double, Pose2D>> readTrajectory(const std::string& path);
 
 }  // namespace mrslam::bench

@@ -36,6 +36,8 @@ struct SeedParams {
   double penalty_gain = 0.05;    // prior around the prediction: a pose k predicted sigmas away
   double min_penalty = 0.5;      // scores x max(min_penalty, 1 - gain k^2), so where the scan
                                  // cannot tell (along a corridor) the prediction wins
+  double jump_margin = 0.15;     // a doubted increment is judged a jump (no motion) only when the
+                                 // scan scores this much higher there than where odometry says
   double slip_margin = 0.1;      // a match the EKF gate refuses is still taken when the scan
                                  // scores this much higher there than at the prediction
   double resolution = 0.05;      // m, of the likelihood grid
@@ -83,6 +85,9 @@ struct GraphParams {
   double loop_confirm_travel = 10.0;     // m: ...found within this much further travel
   double loop_outlier_chi2 = 25.0;       // a closure whose error at the optimum exceeds this
                                          // (squared sigmas) is dropped as wrong
+  double optimize_chi2 = 9.0;            // closures agreeing with the graph within this (squared
+  int optimize_every = 25;               // sigmas) wait for the next optimisation, at most this
+                                         // many nodes
   std::string solver = "ceres";          // or "mrpt"
   int solver_iterations = 50;
 };
@@ -145,6 +150,7 @@ struct FrontEndStats {
   size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed
   size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;
   size_t optimizations = 0, optimization_failures = 0;
+  double tracking_ms = 0, loop_search_ms = 0, optimization_ms = 0;  // where the time went
   std::string last_problem;
 };
 
@@ -159,6 +165,8 @@ class FrontEnd {
   virtual ScanStep processScan(const LaserScan& scan) = 0;
   // Forgets everything (bag restarted, time went backwards).
   virtual void reset() = 0;
+  // The end of the data: whatever was deferred (an optimisation) is done now.
+  virtual void finish() {}
   // Whether scan time stamps mean anything (false: equal, too coarse or not increasing). When
   // they do not, no rule uses the time between scans.
   virtual void setTimeUsable(bool usable) = 0;

@@ -36,6 +36,7 @@ class GraphSlam : public FrontEnd {
   ScanStep processScan(const LaserScan& scan) override;
   void reset() override;
   void setTimeUsable(bool usable) override { tracker_.setTimeUsable(usable); }
+  void finish() override;
 
   Pose2D pose() const override;
   Eigen::Matrix3d covariance() const override { return tracker_.filter().covariance(); }
@@ -94,7 +95,8 @@ class GraphSlam : public FrontEnd {
   std::vector<ScanRef> scans_;
   std::vector<Closure> pending_;  // closures waiting for a consistent partner
   double travel_ = 0;
-  bool weak_since_node_ = false;  // a scan since the last node was matched poorly or not at all
+  bool weak_since_node_ = false;
+  int unoptimized_closures_ = 0, nodes_since_optimization_ = 0;  // a scan since the last node was matched poorly or not at all
   Pose2D last_tracker_pose_;
   uint64_t map_version_ = 0;
   FrontEndStats stats_;

@@ -15,6 +15,7 @@ struct GridMapperParams {
   double resolution = 0.05;            // m per cell
   double initial_size = 20.0;          // m, side of the initial square map (it grows as needed)
   double max_insert_range = 30.0;      // m, returns beyond this are not inserted
+  double no_return_range = 5.0;        // m: a beam with no return clears free space this far (0: not at all)
   double occupied_update = 0.65;       // probability of one hit (MRPT maxOccupancyUpdateCertainty)
   double free_update = 0.35;           // probability after one pass-through (1 - MRPT maxFreenessUpdateCertainty)
 };

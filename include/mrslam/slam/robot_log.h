@@ -43,6 +43,15 @@ RobotLog readCarmenLog(const std::string& path);
 RobotLog readMinesLog(const std::string& path);
 RobotLog readMrptRawlog(const std::string& path);
 
+// Whether the scans' time stamps can be used for anything that depends on the time between
+// scans: not when they are all equal (printed with too few digits), too coarse (many
+// consecutive scans share one), or not increasing. `reason` says which, for one warning.
+struct TimeStampCheck {
+  bool usable = true;
+  std::string reason;
+};
+TimeStampCheck checkTimeStamps(const RobotLog& log);
+
 // Odometry chained from the log's increments, starting at `start` (one pose per record).
 std::vector<Pose2D> chainOdometry(const RobotLog& log, const Pose2D& start = Pose2D{});
 

@@ -32,6 +32,20 @@ struct CorrelativeMatcher::Candidate {
   float score = 0;
 };
 
+namespace {
+
+// out[i] = max(in[i - step], in[i]) for i in [0, n + step), where in[] is n long and reads
+// outside it are 0: the max over a window of two cells `step` apart, one array at a time.
+void pairMax(const uint8_t* in, int n, int step, uint8_t* out) {
+  const int both_from = std::min(step, n), both_to = n;  // i in [step, n): both inside
+  for (int i = 0; i < both_from; ++i) out[i] = in[i];
+  for (int i = step; i < both_to; ++i) out[i] = std::max(in[i - step], in[i]);
+  for (int i = std::max(n, step); i < n + step; ++i) out[i] = in[i - step];
+  for (int i = n; i < step; ++i) out[i] = 0;  // only when step > n: cells neither reaches
+}
+
+}  // namespace
+
 CorrelativeMatcher::CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> grid, int levels) : grid_(std::move(grid)) {
   Level base;
   base.width = grid_->width();
@@ -39,29 +53,26 @@ CorrelativeMatcher::CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> gri
   base.values = grid_->values();
   levels_.push_back(std::move(base));
   // Level h holds, at (x, y), the max of level 0 over [x, x + 2^h) x [y, y + 2^h); it also
-  // covers x, y down to -(2^h - 1), where a window still reaches into the grid.
+  // covers x, y down to -(2^h - 1), where a window still reaches into the grid. It is level
+  // h - 1 maxed with itself shifted by 2^(h-1), along rows then along columns.
   for (int h = 1; h < std::max(1, levels); ++h) {
     const Level& prev = levels_.back();
     const int step = 1 << (h - 1);
     Level next;
     next.offset = (1 << h) - 1;
-    next.width = grid_->width() + next.offset;
-    next.height = grid_->height() + next.offset;
-    std::vector<uint8_t> half(static_cast<size_t>(next.width) * prev.height);  // max along x, prev's rows
+    next.width = prev.width + step;
+    next.height = prev.height + step;
+    std::vector<uint8_t> rows(static_cast<size_t>(next.width) * prev.height);
     for (int y = 0; y < prev.height; ++y)
-      for (int x = 0; x < next.width; ++x) {
-        const int gx = x - next.offset, gy = y - prev.offset;
-        half[static_cast<size_t>(y) * next.width + x] = static_cast<uint8_t>(std::max(prev.at(gx, gy), prev.at(gx + step, gy)));
+      pairMax(&prev.values[static_cast<size_t>(y) * prev.width], prev.width, step, &rows[static_cast<size_t>(y) * next.width]);
+    next.values.assign(static_cast<size_t>(next.width) * next.height, 0);
+    for (int y = 0; y < next.height; ++y) {  // row y: rows y - step and y of the row pass
+      uint8_t* out = &next.values[static_cast<size_t>(y) * next.width];
+      for (const int r : {y - step, y}) {
+        if (r < 0 || r >= prev.height) continue;
+        const uint8_t* in = &rows[static_cast<size_t>(r) * next.width];
+        for (int x = 0; x < next.width; ++x) out[x] = std::max(out[x], in[x]);
       }
-    next.values.resize(static_cast<size_t>(next.width) * next.height);
-    auto half_at = [&](int x, int gy) {  // gy in grid coordinates
-      const int y = gy + prev.offset;
-      return (y < 0 || y >= prev.height) ? uint8_t{0} : half[static_cast<size_t>(y) * next.width + x];
-    };
-    for (int y = 0; y < next.height; ++y) {
-      const int gy = y - next.offset;
-      for (int x = 0; x < next.width; ++x)
-        next.values[static_cast<size_t>(y) * next.width + x] = std::max(half_at(x, gy), half_at(x, gy + step));
     }
     levels_.push_back(std::move(next));
   }

@@ -1,6 +1,7 @@
 #include "mrslam/slam/graph_slam.h"
 
 #include <algorithm>
+#include <chrono>
 
 #include "mrslam/slam/ekf_front_end.h"
 
@@ -27,13 +28,22 @@ void GraphSlam::reset() {
   travel_ = 0;
   weak_since_node_ = false;
   pending_.clear();
+  unoptimized_closures_ = nodes_since_optimization_ = 0;
   last_tracker_pose_ = Pose2D{};
   stats_ = FrontEndStats{};
   ++map_version_;
 }
 
+namespace {
+double msSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+}  // namespace
+
 ScanStep GraphSlam::processScan(const LaserScan& scan) {
+  const auto start = std::chrono::steady_clock::now();
   ScanStep step = tracker_.track(scan);
+  stats_.tracking_ms += msSince(start);
   countStep(step, stats_);
   if (!step.used) return step;
   // How much the tracker's motion since the last node can be trusted.
@@ -88,6 +98,7 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanS
 }
 
 void GraphSlam::closeLoops(int n, ScanStep& step) {
+  const auto start = std::chrono::steady_clock::now();
   std::vector<Pose2D> anchor_poses;
   anchor_poses.reserve(submaps_.size());
   for (const auto& s : submaps_) anchor_poses.push_back(poses_[s->anchor()]);
@@ -95,6 +106,7 @@ void GraphSlam::closeLoops(int n, ScanStep& step) {
   const LoopQuery query{nodes_[n].points, poses_[n], travel_,
                         graphDistances(static_cast<int>(nodes_.size()), edges_, n, loop_length, closer_.saturationDistance())};
   const std::vector<LoopClosure> closures = closer_.search(query, submaps_, anchor_poses, stats_);
+  stats_.loop_search_ms += msSince(start);
   expirePending();
   int accepted = 0;
   for (const LoopClosure& c : closures) {
@@ -107,10 +119,24 @@ void GraphSlam::closeLoops(int n, ScanStep& step) {
       ++accepted;
     }
   }
-  if (accepted == 0) return;
-  stats_.loop_accepted += accepted;
-  step.loop_closures = accepted;
-  step.map_moved = optimize();
+  if (accepted > 0) {
+    stats_.loop_accepted += accepted;
+    step.loop_closures = accepted;
+    // Closures the graph already agrees with can wait: the graph is optimised when one
+    // disagrees, or every optimize_every nodes (and by finish()).
+    double worst = 0;
+    for (size_t i = edges_.size() - accepted; i < edges_.size(); ++i) worst = std::max(worst, edgeChi2(poses_, edges_[i]));
+    unoptimized_closures_ += accepted;
+    if (worst > params_.graph.optimize_chi2) {
+      step.map_moved = optimize();
+      return;
+    }
+  }
+  if (unoptimized_closures_ > 0 && ++nodes_since_optimization_ >= params_.graph.optimize_every) step.map_moved = optimize();
+}
+
+void GraphSlam::finish() {
+  if (unoptimized_closures_ > 0) optimize();
 }
 
 bool GraphSlam::agreesWithGraph(const Closure& c) const {
@@ -187,9 +213,12 @@ PoseGraphEdge GraphSlam::loopEdge(int from, int to, const Pose2D& measurement) c
 
 bool GraphSlam::optimize() {
   bool moved = false;
+  unoptimized_closures_ = 0;
+  nodes_since_optimization_ = 0;
   for (int round = 0; round < kMaxOutlierRounds; ++round) {
     ++stats_.optimizations;
     const OptimizeResult result = solver_->optimize(poses_, edges_);
+    stats_.optimization_ms += result.milliseconds;
     if (!result.ok) {
       ++stats_.optimization_failures;
       stats_.last_problem = "pose graph not optimised, last good poses kept: " + result.reason;

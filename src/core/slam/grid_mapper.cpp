@@ -1,5 +1,7 @@
 #include "mrslam/slam/grid_mapper.h"
 
+#include <algorithm>
+
 #include <mrpt/maps/COccupancyGridMap2D.h>
 #include <mrpt/obs/CObservation2DRangeScan.h>
 #include <mrpt/poses/CPose3D.h>
@@ -30,10 +32,13 @@ void GridMapper::clear() {
   ++version_;
 }
 
-void GridMapper::insert(const LaserScan& scan, const Pose2D& pose) {
-  if (!scanProblem(scan).empty() || scan.ranges.size() < 2) return;
-  // MRPT spreads the rays evenly over an aperture centred on the sensor's x axis, so the
-  // sensor pose is turned to the centre of our scan's angular span.
+namespace {
+
+// The scan as MRPT's observation: rays spread evenly over an aperture centred on the sensor's
+// x axis (so the sensor pose is turned to the centre of our scan's span), `use` choosing the
+// beams that count, each at the range `range_of` gives.
+template <typename Use, typename Range>
+mrpt::obs::CObservation2DRangeScan observation(const LaserScan& scan, const Pose2D& laser_in_base, Use use, Range range_of) {
   mrpt::obs::CObservation2DRangeScan obs;
   const size_t n = scan.ranges.size();
   const double span = scan.angle_increment * (n - 1);
@@ -42,15 +47,33 @@ void GridMapper::insert(const LaserScan& scan, const Pose2D& pose) {
   obs.maxRange = static_cast<float>(scan.range_max);
   obs.resizeScan(n);
   for (size_t i = 0; i < n; ++i) {
-    const float r = scan.ranges[i];
-    const bool valid = std::isfinite(r) && r >= scan.range_min && r < scan.range_max;
-    obs.setScanRange(i, valid ? r : 0.0f);
+    const bool valid = use(scan.ranges[i]);
+    obs.setScanRange(i, valid ? range_of(scan.ranges[i]) : 0.0f);
     obs.setScanRangeValidity(i, valid);
   }
-  const Pose2D sensor = laser_in_base_.compose(Pose2D{0, 0, scan.angle_min + span / 2});
+  const Pose2D sensor = laser_in_base.compose(Pose2D{0, 0, scan.angle_min + span / 2});
   obs.sensorPose = mrpt::poses::CPose3D(sensor.x, sensor.y, 0, sensor.yaw, 0, 0);
+  return obs;
+}
+
+}  // namespace
+
+void GridMapper::insert(const LaserScan& scan, const Pose2D& pose) {
+  if (!scanProblem(scan).empty() || scan.ranges.size() < 2) return;
+  auto& map = impl_->map;
   const mrpt::poses::CPose3D robot(pose.x, pose.y, 0, pose.yaw, 0, 0);
-  impl_->map.insertObservation(obs, robot);
+  auto is_return = [&](float r) { return std::isfinite(r) && r >= scan.range_min && r < scan.range_max; };
+  map.insertObservation(observation(scan, laser_in_base_, is_return, [](float r) { return r; }), robot);
+  // No return (at or beyond the sensor's maximum) says the beam met nothing up to a cap: free
+  // space, never an obstacle. MRPT marks no end cell for a ray truncated at
+  // maxDistanceInsertion, so these rays go in with exactly that length.
+  const float cap = static_cast<float>(params_.no_return_range);
+  auto is_no_return = [&](float r) { return !std::isnan(r) && r >= scan.range_max; };
+  if (cap > 0 && std::any_of(scan.ranges.begin(), scan.ranges.end(), is_no_return)) {
+    map.insertionOptions.maxDistanceInsertion = cap;
+    map.insertObservation(observation(scan, laser_in_base_, is_no_return, [cap](float) { return cap; }), robot);
+    map.insertionOptions.maxDistanceInsertion = static_cast<float>(params_.max_insert_range);
+  }
   ++version_;
 }
 

@@ -103,7 +103,9 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       if (step.odometry_doubted) {
         const Pose2D still{before.x, before.y, Pose2D::normalizeAngle(before.yaw + turned)};
         const CorrelativeMatch at_rest = seedMatch(points, still, xy, yaw, sigma_xy, sigma_yaw);
-        if (at_rest.found && (!seed.found || at_rest.score > seed.score)) {
+        // Odometry is data: the robot stood still only when the scan clearly says so (along a
+        // corridor both hypotheses find a pose that fits about as well).
+        if (at_rest.found && (!seed.found || at_rest.score > seed.score + sp.jump_margin)) {
           // The scan agrees better with no motion: the increment was a jump, not motion.
           step.odometry_jump = true;
           seed = at_rest;

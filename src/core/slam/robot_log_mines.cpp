@@ -41,10 +41,7 @@ RobotLog readMinesLog(const std::string& path) {
     }
     LogRecord record;
     record.scan.stamp = fields[0] * 1e-6;
-    if (!log.records.empty() && record.scan.stamp < log.records.back().scan.stamp) {
-      log.warnings.push_back(path + ":" + std::to_string(number) + ": time goes backwards, line skipped");
-      continue;
-    }
+    // Time stamps are kept as they are, even going backwards: checkTimeStamps() judges them.
     const long left = static_cast<long>(fields[2]), right = static_cast<long>(fields[3]);
     if (have_previous) {
       const double wheel_left = 2 * M_PI * (left - previous_left) / kCountsPerTurn;
@@ -65,6 +62,8 @@ RobotLog readMinesLog(const std::string& path) {
     for (int i = 0; i < kBeams; ++i) record.scan.ranges[i] = static_cast<float>(fields[kFirstRangeField + i] * 1e-3);
     log.records.push_back(std::move(record));
   }
+  const std::string stopped = lines.error();
+  if (!stopped.empty()) log.warnings.push_back(path + ": input ends early (" + stopped + "): the log is truncated");
   if (log.records.empty()) throw LogError(path + ": no readable scan line (is this a Mines .dat log?)");
   return log;
 }

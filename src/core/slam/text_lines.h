@@ -30,6 +30,14 @@ class TextLines {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
   }
+  // After next() returned false: why reading stopped early (empty at a clean end of file), e.g.
+  // a gzip stream cut off mid-way.
+  std::string error() const {
+    int code = Z_OK;
+    const char* message = gzerror(file_, &code);
+    return (code == Z_OK || code == Z_STREAM_END) ? std::string() : std::string(message ? message : "read error");
+  }
+  int linesRead() const { return count_; }
 
  private:
   gzFile file_;
