@@ -10,7 +10,7 @@
 // connects every robot's map frame from every other; merged maps are published; a peer that
 // sends a malformed grid is refused and one that sends a map of another building is rejected;
 // peers sending maps the fusion must refuse (they once killed every manager) are refused and
-// every robot's merge_status keeps coming.
+// every robot's merge_status keeps coming; an impostor claiming robot2's id is refused.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -185,6 +185,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
         h.version = version;
         share_pub.publish(h);
       }
+      // An impostor: another node claiming to be robot2, with another building and a huge version.
+      if (version > 20) share_pub.publish(shareOf("robot2", other, 1000000));
     }
     std::lock_guard<std::mutex> lock(mutex);
     size_t poses = 0;
@@ -267,6 +269,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     ASSERT_TRUE(r.merged) << n << ": no merged map";
     EXPECT_FALSE(r.peers.count("intruder_malformed")) << n << " took a malformed map";
     for (const std::string& id : hostile_ids) EXPECT_FALSE(r.peers.count(id)) << n << " took the map of " << id;
+    if (n != "robot2" && r.peers.count("robot2"))
+      EXPECT_LT(r.peers["robot2"].version, 1000000) << n << " took the impostor's map for robot2's";
     ASSERT_TRUE(r.peers.count("zz_other_building")) << n << " never saw the other building's map";
     EXPECT_FALSE(r.peers["zz_other_building"].accepted) << n << " merged a map of another building";
     for (const auto& m : names) {

@@ -16,16 +16,14 @@
 #include "mrslam/slam/scan_matcher.h"
 #include "mrslam/slam/simulated_gyro.h"
 #include "test_data.h"
+#include "test_logs.h"
 
 namespace mrslam::slam {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-const RobotLog& intelLog() {
-  static const RobotLog log = readRobotLog(test::dataPath("logs/carmen_corrected/intel-corrected.log.gz"));
-  return log;
-}
+using test::intelLog;
 
 TEST(Ekf2D, PredictMatchesHandComputedMeanAndCovariance) {
   MotionNoise noise;  // defaults: 0.2 m/m, 0.05 m/rad, 0.2 rad/m, 0.3 rad/rad, floors 0.02 m, 0.01 rad

@@ -18,16 +18,14 @@
 #include "mrslam/slam/robot_log.h"
 #include "mrslam/slam/robot_params.h"
 #include "test_data.h"
+#include "test_logs.h"
 
 namespace mrslam::slam {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-const RobotLog& intelLog() {
-  static const RobotLog log = readRobotLog(test::dataPath("logs/carmen_corrected/intel-corrected.log.gz"));
-  return log;
-}
+using test::intelLog;
 
 RobotSlamParams defaults() { return loadRobotSlamParams(std::string(MRSLAM_SOURCE_DIR) + "/config/robot.yaml"); }
 

@@ -1,12 +1,21 @@
 // mrslam_bench_slam_eval LOG [LABEL=TRAJECTORY ...]: accuracy of trajectories against the
 // reference poses of a corrected CARMEN log (Kümmerle et al. 2009 relations), beside the raw
 // wheel odometry chained from the log's ODOM lines. Prints markdown table rows:
-//   | log | method | 1-step m | 1-step deg | 10-step m | 10-step deg | global m | global deg |
-// Trajectory lines are matched to the log's scans by time stamp, in order.
+//   | log | method | 1-step m | 1-step deg | 10-step m | 10-step deg | global m | global deg | conflict % |
+// Trajectory lines are matched to the log's scans by scan index where they carry one, else by
+// time stamp, in order.
+//
+// Conflict: how much the scans cast along the trajectory contradict each other (bench/
+// map_consistency.h: the share of laser hits in cells that other rays pass through more often).
+// It needs no reference: a row for the reference poses themselves shows where the reference
+// stands (the reference poses carry errors of their own).
+#include <algorithm>
 #include <cstdio>
+#include <iomanip>
 #include <iostream>
 #include <string>
 
+#include "mrslam/bench/map_consistency.h"
 #include "mrslam/bench/trajectory_metrics.h"
 #include "mrslam/slam/robot_log.h"
 
@@ -21,8 +30,15 @@ std::string cell(double mean, double std, double scale, int precision) {
   return buffer;
 }
 
+// The scans' conflict (percent) when cast along `poses` (scans[i] at poses[i]).
+double conflictPercent(const mrslam::slam::RobotLog& log, const std::vector<size_t>& scans, const std::vector<Pose2D>& poses) {
+  std::vector<const mrslam::slam::LaserScan*> taken;
+  for (size_t k : scans) taken.push_back(&log.records[k].scan);
+  return 100.0 * bench::mapConsistency(taken, poses, log.laser_in_base).conflict;
+}
+
 void row(const std::string& log_name, const std::string& label, const std::vector<Pose2D>& estimate,
-         const std::vector<Pose2D>& reference) {
+         const std::vector<Pose2D>& reference, double conflict) {
   const double deg = 180.0 / M_PI;
   const auto one = bench::relationError(estimate, reference, bench::consecutivePairs(reference.size(), 1));
   const auto ten = bench::relationError(estimate, reference, bench::consecutivePairs(reference.size(), 10));
@@ -30,7 +46,8 @@ void row(const std::string& log_name, const std::string& label, const std::vecto
   std::cout << "| " << log_name << " | " << label << " | " << cell(one.trans_mean, one.trans_std, 1, 3) << " | "
             << cell(one.rot_mean, one.rot_std, deg, 2) << " | " << cell(ten.trans_mean, ten.trans_std, 1, 3) << " | "
             << cell(ten.rot_mean, ten.rot_std, deg, 2) << " | " << cell(global.trans_mean, global.trans_std, 1, 2)
-            << " | " << cell(global.rot_mean, global.rot_std, deg, 1) << " |\n";
+            << " | " << cell(global.rot_mean, global.rot_std, deg, 1) << " | " << std::fixed << std::setprecision(2) << conflict
+            << " |\n";
 }
 
 }  // namespace
@@ -48,7 +65,12 @@ int main(int argc, char** argv) {
     name = name.substr(0, name.find('.'));
     std::vector<Pose2D> reference;
     for (const auto& r : log.records) reference.push_back(r.reference);
-    row(name, "odometry (raw, ODOM lines)", mrslam::slam::chainOdometry(log), reference);
+    std::vector<size_t> all(log.records.size());
+    for (size_t k = 0; k < all.size(); ++k) all[k] = k;
+    std::cout << "| " << name << " | reference poses (the truth used here) | – | – | – | – | – | – | " << std::fixed
+              << std::setprecision(2) << conflictPercent(log, all, reference) << " |\n";
+    const auto odometry = mrslam::slam::chainOdometry(log);
+    row(name, "odometry (raw, ODOM lines)", odometry, reference, conflictPercent(log, all, odometry));
     for (int i = 2; i < argc; ++i) {
       const std::string arg = argv[i];
       const size_t eq = arg.find('=');
@@ -57,6 +79,7 @@ int main(int argc, char** argv) {
       // Match by scan index when the trajectory has one (time stamps need not be unique), else
       // by time stamp, in order: scans the run did not use drop out of both sides.
       std::vector<Pose2D> estimate, matched_reference;
+      std::vector<size_t> scans;
       size_t k = 0;
       for (const bench::TrajectoryEntry& e : trajectory) {
         if (e.scan >= 0) {
@@ -67,11 +90,12 @@ int main(int argc, char** argv) {
           if (k == log.records.size()) throw std::runtime_error(arg + ": time stamp " + std::to_string(e.stamp) + " not in the log (or out of order)");
         }
         estimate.push_back(e.pose);
+        scans.push_back(k);
         matched_reference.push_back(reference[k++]);
       }
       if (estimate.size() < log.records.size())
         std::cerr << arg << ": " << log.records.size() - estimate.size() << " scans not in the trajectory\n";
-      row(name, arg.substr(0, eq), estimate, matched_reference);
+      row(name, arg.substr(0, eq), estimate, matched_reference, conflictPercent(log, scans, estimate));
     }
   } catch (const std::exception& e) {
     std::cerr << "mrslam_bench_slam_eval: " << e.what() << "\n";

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -55,6 +56,17 @@ void checkPnmSize(const std::string& path, const std::string& yaml_path) {
     fail(path, "image data truncated: header says " + std::to_string(values[0]) + " x " +
                    std::to_string(values[1]) + " cells, file holds " + std::to_string(size - header) +
                    " of " + std::to_string(expected) + " bytes (image of " + yaml_path + ")");
+}
+
+// Writes `bytes` to `path`, every failure (cannot open, short write, flush or close) an error.
+void writeFile(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) fail(path, "cannot open for writing");
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  out.flush();
+  if (!out) fail(path, "write failed (disk full?)");
+  out.close();
+  if (!out) fail(path, "write failed when closing (disk full?)");
 }
 
 }  // namespace
@@ -175,19 +187,22 @@ void saveMap(const OccupancyGrid& grid, const std::string& yaml_path,
   const fs::path yaml(yaml_path);
   fs::path image_path = yaml;
   image_path.replace_extension(image_extension);
+  // Encoded in memory and written with checks: a full disk or a bad device is an error, not a
+  // quietly short file.
+  std::vector<uchar> encoded;
   try {
-    if (!cv::imwrite(image_path.string(), image)) fail(image_path.string(), "cannot write image");
+    if (!cv::imencode(image_extension, image, encoded)) fail(image_path.string(), "cannot encode image");
   } catch (const cv::Exception& e) {
-    fail(image_path.string(), std::string("cannot write image: ") + e.what());
+    fail(image_path.string(), std::string("cannot encode image: ") + e.what());
   }
-  std::ofstream out(yaml_path);
-  if (!out) fail(yaml_path, "cannot open for writing");
-  out.precision(17);
-  out << "image: " << image_path.filename().string() << "\n"
-      << "resolution: " << grid.resolution << "\n"
-      << "origin: [" << grid.origin.x << ", " << grid.origin.y << ", " << grid.origin.yaw << "]\n"
-      << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
-  if (!out) fail(yaml_path, "write failed");
+  writeFile(image_path.string(), std::string(encoded.begin(), encoded.end()));
+  std::ostringstream yaml_text;
+  yaml_text.precision(17);
+  yaml_text << "image: " << image_path.filename().string() << "\n"
+            << "resolution: " << grid.resolution << "\n"
+            << "origin: [" << grid.origin.x << ", " << grid.origin.y << ", " << grid.origin.yaw << "]\n"
+            << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  writeFile(yaml_path, yaml_text.str());
 }
 
 }  // namespace mrslam

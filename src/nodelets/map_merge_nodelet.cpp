@@ -14,7 +14,8 @@
 // callback (id, grid structure, origin) and its grid again in the worker with exactly the
 // checks the fusion makes (fusion::peerMapProblem) before it replaces the peer's last good map;
 // a refused map is counted and named in diagnostics, and a peer refused bad_maps_to_quarantine
-// times in a row is not listened to for quarantine_period s. Anything the worker still throws
+// times in a row is not listened to for quarantine_period s. A robot id belongs to the node that
+// first shared under it; another publisher claiming it is refused as an impostor. Anything the worker still throws
 // is caught, counted and logged with the peer it came from; the worker goes on.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -78,6 +79,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     pnh.param("quarantine_period", quarantine_params.period_s, quarantine_params.period_s);
     quarantine_ = fusion::PeerQuarantine(quarantine_params);
     pnh.param("max_peers", max_peers_, max_peers_);
+    pnh.param("owner_timeout", owner_timeout_, owner_timeout_);
     if (!fusion_config.empty()) {
       try {
         fusion_params_ = fusion::loadFusionParams(fusion_config);
@@ -106,16 +108,17 @@ class MapMergeNodelet : public nodelet::Nodelet {
     wake_.notify_one();
   }
 
-  void onShare(const SharedMap::ConstPtr& share) {
+  void onShare(const ros::MessageEvent<SharedMap const>& event) {
+    const SharedMap::ConstPtr share = event.getConstMessage();
     try {
-      checkShare(share);
+      checkShare(share, event.getPublisherName());
     } catch (const std::exception& e) {
       recordFault("share of '" + printable(share->robot_id) + "'", e.what());
     }
   }
 
   // The callback's checks: cheap, no copy of the grid (the worker converts it later).
-  void checkShare(const SharedMap::ConstPtr& share) {
+  void checkShare(const SharedMap::ConstPtr& share, const std::string& publisher) {
     const std::string& id = share->robot_id;
     if (id == robot_id_) return;
     if (!fusion::isValidRobotId(id)) {
@@ -125,6 +128,18 @@ class MapMergeNodelet : public nodelet::Nodelet {
     }
     {
       std::lock_guard<std::mutex> lock(mutex_);
+      // A robot id belongs to the node that first shared under it (while it keeps sharing): a
+      // second publisher claiming it is an impostor, refused and reported, never merged, and
+      // not counted against the real peer.
+      const auto owner = owners_.find(id);
+      if (owner != owners_.end() && owner->second.publisher != publisher &&
+          ros::WallTime::now().toSec() - owner->second.last_heard < owner_timeout_) {
+        ++impostor_shares_;
+        last_problem_ = "map of '" + id + "' from " + printable(publisher) + " refused: the id belongs to " +
+                        printable(owner->second.publisher);
+        NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+        return;
+      }
       if (quarantine_.isQuarantined(id, ros::WallTime::now().toSec())) {
         ++quarantined_shares_;
         return;
@@ -146,6 +161,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     // Only the newest map of each peer is kept; the worker converts it when it gets to it, so
     // the callback never copies a grid and maps superseded in the meantime are never copied.
     std::lock_guard<std::mutex> lock(mutex_);
+    owners_[id] = Owner{publisher, ros::WallTime::now().toSec()};  // (re)claimed: the owner was silent
     pending_[id] = share;
     wake_.notify_one();
   }
@@ -415,6 +431,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     for (const std::string& id : quarantine_.quarantined(ros::WallTime::now().toSec())) quarantined += id + " ";
     status.add("peers quarantined", quarantined);
     status.add("shares dropped from quarantined peers", quarantined_shares_);
+    status.add("shares refused from impostors", impostor_shares_);
     status.add("last problem", last_problem_);
     // For the zero-copy test: the address of the last own map object received.
     status.add("own map address", std::to_string(own_address_));
@@ -432,6 +449,13 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::unique_ptr<fusion::PeerRegistry> registry_;
   fusion::PeerQuarantine quarantine_;
   int max_peers_ = 32;
+  struct Owner {  // the publisher (ROS node) that holds a robot id, and when it last shared
+    std::string publisher;
+    double last_heard = 0;
+  };
+  std::map<std::string, Owner> owners_;
+  double owner_timeout_ = 30.0;
+  size_t impostor_shares_ = 0;
   nav_msgs::OccupancyGrid::ConstPtr own_msg_;
   std::shared_ptr<const OccupancyGrid> own_grid_;
   nav_msgs::OccupancyGrid::ConstPtr merged_;

@@ -58,6 +58,8 @@ class SlamNodelet : public nodelet::Nodelet {
     pnh.param("publish_tf", publish_tf_, true);
     pnh.param("transform_tolerance", transform_tolerance_, 0.1);
     pnh.param("max_time_jump", max_time_jump_, 1.0);
+    pnh.param("restart_scans", restart_scans_, 3);
+    pnh.param("future_tolerance", future_tolerance_, 10.0);
     pnh.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
     pnh.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
     double map_rate = 1.0, period = 1.0;
@@ -137,16 +139,56 @@ class SlamNodelet : public nodelet::Nodelet {
   }
 
   void onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+    try {
+      processScan(msg);
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++faults_;
+      last_problem_ = std::string("scan: ") + e.what();
+      NODELET_ERROR_THROTTLE(5.0, "caught: %s", last_problem_.c_str());
+    }
+  }
+
+  // Why a scan's stamp cannot be used now (empty when it can). Time going back is a bag that
+  // restarted only when restart_scans scans in a row say so: one stray old stamp (or a scan
+  // stamped 0) must not wipe the map.
+  std::string stampProblem(const ros::Time& stamp) {  // mutex_ held
+    const double t = stamp.toSec();
+    if (stamp.isZero()) return "scan stamped 0";
+    const ros::Time now = ros::Time::now();
+    if (!now.isZero() && t > now.toSec() + future_tolerance_)
+      return "scan stamped " + std::to_string(t - now.toSec()) + " s in the future";
+    if (!last_scan_time_ || t >= *last_scan_time_ - max_time_jump_) {
+      going_back_ = 0;
+      return "";
+    }
+    const bool in_order = going_back_ == 0 || t > last_back_time_;
+    going_back_ = in_order ? going_back_ + 1 : 1;
+    last_back_time_ = t;
+    if (going_back_ < restart_scans_)
+      return "scan stamped " + std::to_string(*last_scan_time_ - t) + " s before the last one";
+    NODELET_WARN("time went back %.1f s for %d scans in a row (bag restarted?): starting a new map and trajectory",
+                 *last_scan_time_ - t, going_back_);
+    robot_.reset();
+    last_odom_.reset();
+    last_scan_time_.reset();
+    gyro_.clear();
+    stamps_.clear();
+    tf_buffer_->clear();
+    going_back_ = 0;
+    ++resets_;
+    return "";
+  }
+
+  void processScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     const double t = msg->header.stamp.toSec();
-    if (last_scan_time_ && t < *last_scan_time_ - max_time_jump_) {
-      NODELET_WARN("time went back %.1f s (bag restarted?): starting a new map", *last_scan_time_ - t);
-      robot_.reset();
-      last_odom_.reset();
-      gyro_.clear();
-      stamps_.clear();
-      tf_buffer_->clear();
-      ++resets_;
+    const std::string stamp_problem = stampProblem(msg->header.stamp);
+    if (!stamp_problem.empty()) {
+      ++rejected_;
+      last_problem_ = stamp_problem;
+      NODELET_WARN_THROTTLE(5.0, "scan refused: %s", stamp_problem.c_str());
+      return;
     }
     if (!robot_) {
       std::string error;
@@ -275,6 +317,7 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("odometry messages", odometry_messages_);
     status.add("odometry messages with NaN", bad_odometry_);
     status.add("resets (time jumps)", resets_);
+    status.add("faults caught", faults_);
     status.add("maps published", maps_published_);
     status.add("last problem", s.last_problem.empty() ? last_problem_ : s.last_problem);
     // For the zero-copy test: subscribers in this manager must receive one of these objects.
@@ -286,7 +329,8 @@ class SlamNodelet : public nodelet::Nodelet {
   std::mutex mutex_;
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
-  double transform_tolerance_ = 0.1, max_time_jump_ = 1.0;
+  double transform_tolerance_ = 0.1, max_time_jump_ = 1.0, future_tolerance_ = 10.0, last_back_time_ = 0;
+  int restart_scans_ = 3, going_back_ = 0;
   slam::GyroNoiseModel gyro_model_;
   slam::RobotSlamParams params_;
   std::unique_ptr<slam::FrontEnd> robot_;
@@ -296,6 +340,7 @@ class SlamNodelet : public nodelet::Nodelet {
   std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered
   uint64_t published_version_ = ~0ull;
   size_t odometry_messages_ = 0, bad_odometry_ = 0, rejected_ = 0, imu_rejected_ = 0, resets_ = 0, maps_published_ = 0;
+  size_t faults_ = 0;
   std::string last_problem_;
   std::deque<uintptr_t> recent_addresses_;  // of the last 20 grids published
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;

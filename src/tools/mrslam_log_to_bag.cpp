@@ -2,6 +2,7 @@
 //
 //   mrslam_log_to_bag LOG OUT.bag [--robot NAME:START:END ...] [--start-time T]
 //                     [--simulated-imu [--imu-seed N] [--imu-rate HZ]] [--max-scans N]
+//                     [--scan-period S] [--allow-partial]
 //
 // Each --robot takes the scans of the log between START and END seconds after its first scan
 // (END 0: to the end) and plays them as robot NAME, all windows shifted to start together at
@@ -16,6 +17,13 @@
 // (geometry_msgs/PoseStamped in the log's own world frame, named "reference"; the same frame
 // for all robots of one log, which is what the multi-robot ground truth is made from). They
 // are for evaluation only; nothing in the stack subscribes to them.
+//
+// Refusals, each one line and exit 2, nothing left behind: options out of range (--start-time
+// and every stamp must fit ROS time, --imu-rate 1..1000 Hz), a window with no scan, a bag that
+// cannot be written completely (full disk). A log whose time stamps are unusable (all equal,
+// too coarse, not increasing) needs --scan-period S, which spaces the scans S seconds apart in
+// the order of the lines. Partial input (lines skipped, a truncated file) exits 3 unless
+// --allow-partial. The simulated gyro covers no gap longer than a minute (no samples there).
 #include <geometry_msgs/PoseStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
@@ -23,6 +31,8 @@
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -45,143 +55,233 @@ struct Window {
 
 constexpr const char* kUsage =
     "usage: mrslam_log_to_bag LOG OUT.bag [--robot NAME:START:END ...] [--start-time T]\n"
-    "                         [--simulated-imu [--imu-seed N] [--imu-rate HZ]] [--max-scans N]\n";
+    "                         [--simulated-imu [--imu-seed N] [--imu-rate HZ]] [--max-scans N]\n"
+    "                         [--scan-period S] [--allow-partial]\n";
+constexpr int kBadInput = 2, kPartialInput = 3;
+constexpr double kMaxRosTime = 4294967295.0;  // ros::Time holds unsigned 32-bit seconds
+constexpr double kMaxGyroGap = 60.0;           // s: no simulated gyro across a longer gap
 
 int fail(const std::string& message) {
   std::cerr << "mrslam_log_to_bag: " << message << "\n";
-  return 2;
+  return kBadInput;
+}
+
+// A whole number or a finite real from an option's text, or an exception naming the option.
+double number(const std::string& option, const std::string& text) {
+  size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (...) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(v)) throw std::invalid_argument(option + " needs a number, got '" + text + "'");
+  return v;
+}
+
+struct Options {
+  std::string log_path, bag_path;
+  std::vector<Window> windows;
+  double start_time = 100.0, imu_rate = 100.0, scan_period = 0;
+  bool simulated_imu = false, allow_partial = false;
+  unsigned imu_seed = 1;
+  size_t max_scans = 0;
+};
+
+Options parseOptions(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--robot") {
+      const std::string spec = next();
+      const size_t c1 = spec.find(':'), c2 = spec.find(':', c1 + 1);
+      if (c1 == std::string::npos || c2 == std::string::npos) throw std::invalid_argument("--robot expects NAME:START:END, got " + spec);
+      Window w{spec.substr(0, c1), number("--robot", spec.substr(c1 + 1, c2 - c1 - 1)), number("--robot", spec.substr(c2 + 1))};
+      if (w.robot.empty() || w.start < 0 || (w.end != 0 && w.end <= w.start))
+        throw std::invalid_argument("--robot " + spec + ": a name, START >= 0 and END after START (or 0: to the end)");
+      o.windows.push_back(w);
+    } else if (a == "--start-time") {
+      o.start_time = number(a, next());
+    } else if (a == "--simulated-imu") {
+      o.simulated_imu = true;
+    } else if (a == "--imu-seed") {
+      o.imu_seed = static_cast<unsigned>(number(a, next()));
+    } else if (a == "--imu-rate") {
+      o.imu_rate = number(a, next());
+    } else if (a == "--max-scans") {
+      o.max_scans = static_cast<size_t>(std::max(0.0, number(a, next())));
+    } else if (a == "--scan-period") {
+      o.scan_period = number(a, next());
+    } else if (a == "--allow-partial") {
+      o.allow_partial = true;
+    } else if (!a.empty() && a[0] == '-') {
+      throw std::invalid_argument("unknown option " + a);
+    } else if (o.log_path.empty()) {
+      o.log_path = a;
+    } else if (o.bag_path.empty()) {
+      o.bag_path = a;
+    } else {
+      throw std::invalid_argument("too many arguments");
+    }
+  }
+  if (o.log_path.empty() || o.bag_path.empty()) throw std::invalid_argument("missing arguments");
+  if (!(o.start_time >= 1 && o.start_time < kMaxRosTime)) throw std::invalid_argument("--start-time must lie in 1 .. 4294967295 s (ROS time)");
+  if (!(o.imu_rate >= 1 && o.imu_rate <= 1000)) throw std::invalid_argument("--imu-rate must lie in 1 .. 1000 Hz");
+  if (o.scan_period < 0 || o.scan_period > 3600) throw std::invalid_argument("--scan-period must lie in 0 .. 3600 s");
+  if (o.windows.empty()) o.windows.push_back({"robot1", 0, 0});
+  return o;
+}
+
+// The scans of one window with the ROS stamp each gets: in increasing order (the few
+// backwards-jittering ipc stamps of real logs are nudged forward).
+struct Stamped {
+  size_t index;
+  double stamp;
+};
+std::vector<Stamped> windowScans(const slam::RobotLog& log, const Window& win, const Options& o, bool time_usable) {
+  std::vector<Stamped> out;
+  const double log_start = log.records.front().scan.stamp;
+  double shift = 0, last = -1;
+  for (size_t k = 0; k < log.records.size(); ++k) {
+    const double t_log = time_usable ? log.records[k].scan.stamp - log_start : k * o.scan_period;
+    if (t_log < win.start || (win.end > 0 && t_log > win.end)) continue;
+    if (o.max_scans && out.size() >= o.max_scans) break;
+    if (out.empty()) shift = o.start_time - t_log;
+    const double t = std::max(t_log + shift, last + 1e-3);
+    out.push_back({k, t});
+    last = t;
+  }
+  return out;
+}
+
+void writeScan(rosbag::Bag& bag, const std::string& ns, const slam::RobotLog& log, size_t k, const Pose2D& odometry,
+               const ros::Time& stamp) {
+  const slam::LogRecord& r = log.records[k];
+  sensor_msgs::LaserScan scan;
+  scan.header.stamp = stamp;
+  scan.header.frame_id = ns + "/laser";
+  scan.angle_min = static_cast<float>(r.scan.angle_min);
+  scan.angle_increment = static_cast<float>(r.scan.angle_increment);
+  scan.angle_max = static_cast<float>(r.scan.angle_min + r.scan.angle_increment * (r.scan.ranges.size() - 1));
+  scan.range_min = static_cast<float>(r.scan.range_min);
+  scan.range_max = static_cast<float>(r.scan.range_max);
+  scan.ranges = r.scan.ranges;
+  nav_msgs::Odometry odom;
+  odom.header.stamp = stamp;
+  odom.header.frame_id = ns + "/odom";
+  odom.child_frame_id = ns + "/base_link";
+  odom.pose.pose.position.x = odometry.x;
+  odom.pose.pose.position.y = odometry.y;
+  odom.pose.pose.orientation = yawToQuaternion(odometry.yaw);
+  tf2_msgs::TFMessage tf;
+  tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry));
+  tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
+  // Odometry and tf first: a consumer has the motion up to the scan when the scan arrives.
+  bag.write("/" + ns + "/odom", stamp, odom);
+  bag.write("/tf", stamp, tf);
+  bag.write("/" + ns + "/scan", stamp, scan);
+  if (r.has_reference) {
+    geometry_msgs::PoseStamped ref;
+    ref.header.stamp = stamp;
+    ref.header.frame_id = "reference";
+    ref.pose.position.x = r.reference.x;
+    ref.pose.position.y = r.reference.y;
+    ref.pose.orientation = yawToQuaternion(r.reference.yaw);
+    bag.write("/" + ns + "/reference_pose", stamp, ref);
+  }
+}
+
+// The SIMULATED gyro's samples between two scans (none across a gap longer than a minute).
+size_t writeGyro(rosbag::Bag& bag, const std::string& ns, slam::SimulatedGyro& gyro, const slam::GyroNoiseModel& model,
+                 double t0, double t1, double true_change) {
+  if (t1 - t0 > kMaxGyroGap) return 0;
+  const double rate_variance = std::pow(model.noise_density * M_PI / 180.0, 2) * model.rate_hz;
+  size_t n = 0;
+  for (const slam::GyroSample& s : gyro.samples(t0, t1, true_change)) {
+    sensor_msgs::Imu imu;
+    imu.header.stamp = ros::Time(s.stamp);
+    imu.header.frame_id = ns + "/base_link";
+    imu.orientation_covariance[0] = -1;          // no orientation
+    imu.linear_acceleration_covariance[0] = -1;  // no accelerometer
+    imu.angular_velocity.z = s.rate;
+    imu.angular_velocity_covariance[8] = rate_variance;
+    bag.write("/" + ns + "/imu_simulated", imu.header.stamp, imu);
+    ++n;
+  }
+  return n;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string log_path, bag_path;
-  std::vector<Window> windows;
-  double start_time = 100.0, imu_rate = 100.0;
-  bool simulated_imu = false;
-  unsigned imu_seed = 1;
-  size_t max_scans = 0;
+  if (argc > 1 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help")) {
+    std::cout << kUsage;
+    return 0;
+  }
+  Options o;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto next = [&]() -> std::string {
-        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-        return argv[++i];
-      };
-      if (a == "--robot") {
-        const std::string spec = next();
-        const size_t c1 = spec.find(':'), c2 = spec.find(':', c1 + 1);
-        if (c1 == std::string::npos || c2 == std::string::npos) throw std::invalid_argument("--robot expects NAME:START:END, got " + spec);
-        windows.push_back({spec.substr(0, c1), std::stod(spec.substr(c1 + 1, c2 - c1 - 1)), std::stod(spec.substr(c2 + 1))});
-      } else if (a == "--start-time") start_time = std::stod(next());
-      else if (a == "--simulated-imu") simulated_imu = true;
-      else if (a == "--imu-seed") imu_seed = static_cast<unsigned>(std::stoul(next()));
-      else if (a == "--imu-rate") imu_rate = std::stod(next());
-      else if (a == "--max-scans") max_scans = std::stoul(next());
-      else if (a == "-h" || a == "--help") { std::cout << kUsage; return 0; }
-      else if (!a.empty() && a[0] == '-') throw std::invalid_argument("unknown option " + a);
-      else if (log_path.empty()) log_path = a;
-      else if (bag_path.empty()) bag_path = a;
-      else throw std::invalid_argument("too many arguments");
-    }
+    o = parseOptions(argc, argv);
   } catch (const std::exception& e) {
     return fail(std::string(e.what()) + "\n" + kUsage);
   }
-  if (log_path.empty() || bag_path.empty()) return fail(std::string("missing arguments\n") + kUsage);
-  if (!(start_time > 0) || !(imu_rate > 0)) return fail("--start-time and --imu-rate must be positive");
-  if (windows.empty()) windows.push_back({"robot1", 0, 0});
-
   slam::RobotLog log;
   try {
-    log = slam::readRobotLog(log_path);
+    log = slam::readRobotLog(o.log_path);
   } catch (const std::exception& e) {
     return fail(e.what());
   }
   for (const auto& w : log.warnings) std::cerr << "warning: " << w << "\n";
-  const bool has_reference = log.records.front().has_reference;
-  if (simulated_imu && !has_reference) return fail(log_path + ": --simulated-imu needs a log with reference poses");
+  if (!log.warnings.empty() && !o.allow_partial) {
+    std::cerr << "mrslam_log_to_bag: " << o.log_path << ": partial input (" << log.warnings.size()
+              << " problem(s) above); no bag written. --allow-partial converts what was read\n";
+    return kPartialInput;
+  }
+  if (o.simulated_imu && !log.records.front().has_reference) return fail(o.log_path + ": --simulated-imu needs a log with reference poses");
+  const slam::TimeStampCheck time = slam::checkTimeStamps(log);
+  if (!time.usable && !(o.scan_period > 0))
+    return fail(o.log_path + ": " + time.reason + "; give --scan-period S to space the scans S seconds apart in the order of the lines");
+  const bool time_usable = time.usable && !(o.scan_period > 0);
 
+  // Everything is checked before the bag is opened: a refusal leaves no file behind.
+  std::vector<std::vector<Stamped>> scans;
+  for (const Window& win : o.windows) {
+    scans.push_back(windowScans(log, win, o, time_usable));
+    if (scans.back().empty()) return fail(o.log_path + ": no scan in the window of " + win.robot);
+    const double last = scans.back().back().stamp;
+    if (!(last < kMaxRosTime))
+      return fail(o.log_path + ": scan " + std::to_string(scans.back().back().index) + " would be stamped " +
+                  std::to_string(last) + " s, beyond ROS time (the log's time stamps jump too far)");
+  }
+  const auto odometry = slam::chainOdometry(log);
   rosbag::Bag bag;
   try {
-    bag.open(bag_path, rosbag::bagmode::Write);
+    bag.open(o.bag_path, rosbag::bagmode::Write);
     bag.setCompression(rosbag::compression::LZ4);
-  } catch (const std::exception& e) {
-    return fail(bag_path + ": cannot write (" + e.what() + ")");
-  }
-  const double log_start = log.records.front().scan.stamp;
-  const auto odometry = slam::chainOdometry(log);
-  for (size_t w = 0; w < windows.size(); ++w) {
-    const Window& win = windows[w];
-    const std::string ns = win.robot;
-    slam::GyroNoiseModel model;
-    model.rate_hz = imu_rate;
-    slam::SimulatedGyro gyro(model, imu_seed + static_cast<unsigned>(w));
-    double shift = 0;
-    bool first = true;
-    size_t written = 0;
-    double last_stamp = -1;
-    for (size_t k = 0; k < log.records.size(); ++k) {
-      const slam::LogRecord& r = log.records[k];
-      const double t_log = r.scan.stamp - log_start;
-      if (t_log < win.start || (win.end > 0 && t_log > win.end)) continue;
-      if (max_scans && written >= max_scans) break;
-      if (first) shift = start_time - r.scan.stamp, first = false;
-      // Bags need increasing time: the few backwards-jittering ipc stamps are nudged forward.
-      const double t = std::max(r.scan.stamp + shift, last_stamp + 1e-3);
-      if (simulated_imu && last_stamp > 0) {
-        const double change = Pose2D::normalizeAngle(r.reference.yaw - log.records[k - 1].reference.yaw);
-        const double rate_variance = std::pow(model.noise_density * M_PI / 180.0, 2) * model.rate_hz;
-        for (const slam::GyroSample& s : gyro.samples(last_stamp, t, change)) {
-          sensor_msgs::Imu imu;
-          imu.header.stamp = ros::Time(s.stamp);
-          imu.header.frame_id = ns + "/base_link";
-          imu.orientation_covariance[0] = -1;          // no orientation
-          imu.linear_acceleration_covariance[0] = -1;  // no accelerometer
-          imu.angular_velocity.z = s.rate;
-          imu.angular_velocity_covariance[8] = rate_variance;
-          bag.write("/" + ns + "/imu_simulated", imu.header.stamp, imu);
+    for (size_t w = 0; w < o.windows.size(); ++w) {
+      const std::string& ns = o.windows[w].robot;
+      slam::GyroNoiseModel model;
+      model.rate_hz = o.imu_rate;
+      slam::SimulatedGyro gyro(model, o.imu_seed + static_cast<unsigned>(w));
+      for (size_t i = 0; i < scans[w].size(); ++i) {
+        const size_t k = scans[w][i].index;
+        if (o.simulated_imu && i > 0) {
+          const double change = Pose2D::normalizeAngle(log.records[k].reference.yaw - log.records[scans[w][i - 1].index].reference.yaw);
+          writeGyro(bag, ns, gyro, model, scans[w][i - 1].stamp, scans[w][i].stamp, change);
         }
+        writeScan(bag, ns, log, k, odometry[k], ros::Time(scans[w][i].stamp));
       }
-      const ros::Time stamp(t);
-      sensor_msgs::LaserScan scan;
-      scan.header.stamp = stamp;
-      scan.header.frame_id = ns + "/laser";
-      scan.angle_min = static_cast<float>(r.scan.angle_min);
-      scan.angle_increment = static_cast<float>(r.scan.angle_increment);
-      scan.angle_max = static_cast<float>(r.scan.angle_min + r.scan.angle_increment * (r.scan.ranges.size() - 1));
-      scan.range_min = static_cast<float>(r.scan.range_min);
-      scan.range_max = static_cast<float>(r.scan.range_max);
-      scan.ranges = r.scan.ranges;
-      nav_msgs::Odometry odom;
-      odom.header.stamp = stamp;
-      odom.header.frame_id = ns + "/odom";
-      odom.child_frame_id = ns + "/base_link";
-      odom.pose.pose.position.x = odometry[k].x;
-      odom.pose.pose.position.y = odometry[k].y;
-      odom.pose.pose.orientation = yawToQuaternion(odometry[k].yaw);
-      tf2_msgs::TFMessage tf;
-      tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry[k]));
-      tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
-      // Odometry and tf first: a consumer has the motion up to the scan when the scan arrives.
-      bag.write("/" + ns + "/odom", stamp, odom);
-      bag.write("/tf", stamp, tf);
-      bag.write("/" + ns + "/scan", stamp, scan);
-      if (has_reference) {
-        geometry_msgs::PoseStamped ref;
-        ref.header.stamp = stamp;
-        ref.header.frame_id = "reference";
-        ref.pose.position.x = r.reference.x;
-        ref.pose.position.y = r.reference.y;
-        ref.pose.orientation = yawToQuaternion(r.reference.yaw);
-        bag.write("/" + ns + "/reference_pose", stamp, ref);
-      }
-      last_stamp = t;
-      ++written;
+      std::cout << ns << ": " << scans[w].size() << " scans from " << o.windows[w].start << " s to "
+                << (o.windows[w].end > 0 ? std::to_string(o.windows[w].end) + " s" : std::string("the end")) << " of "
+                << o.log_path << "\n";
     }
-    std::cout << ns << ": " << written << " scans from " << win.start << " s to "
-              << (win.end > 0 ? std::to_string(win.end) + " s" : std::string("the end")) << " of " << log_path << "\n";
-    if (written == 0) std::cerr << "warning: " << ns << ": no scan in the window\n";
+    bag.close();
+  } catch (const std::exception& e) {
+    std::remove(o.bag_path.c_str());
+    return fail(o.bag_path + ": write failed (" + std::string(e.what()).substr(0, 200) + "); nothing kept");
   }
-  bag.close();
   return 0;
 }

@@ -216,7 +216,9 @@ int main(int argc, char** argv) {
     if (o.simulated_imu && time.usable && k > first_in_window) {
       const double t0 = log.records[k - 1].scan.stamp, t1 = r.scan.stamp;
       const double true_change = mrslam::Pose2D::normalizeAngle(r.reference.yaw - log.records[k - 1].reference.yaw);
-      if (t1 > t0) robot.addGyro(gyro.integratedYaw(t0, t1, true_change), gyro.integratedVariance(t1 - t0));
+      // A gap too long for the gyro to cover (SimulatedGyro::kMaxSamples) gets no gyro increment.
+      if (t1 > t0 && (t1 - t0) * slam::GyroNoiseModel{}.rate_hz <= slam::SimulatedGyro::kMaxSamples)
+        robot.addGyro(gyro.integratedYaw(t0, t1, true_change), gyro.integratedVariance(t1 - t0));
     }
     ++offered;
     const slam::ScanStep step = robot.processScan(r.scan);

@@ -43,6 +43,9 @@ struct SeedParams {
   double resolution = 0.05;      // m, of the likelihood grid
   double sigma = 0.05;           // m, likelihood kernel
   double icp_correspondence = 0.15;  // m: ICP after a seed pairs points this close at first
+  double confirm_xy = 0.1;           // m: ICP ending this close to the seed...
+  double confirm_yaw = 0.035;        // rad: ...and this (2 degrees) confirms it, and the match
+  double confirmed_min_goodness = 0.1;  // stands with this much goodness (scans far apart overlap little)
 };
 
 // The pose graph back end (graph_slam.h).

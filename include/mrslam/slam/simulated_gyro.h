@@ -33,7 +33,9 @@ class SimulatedGyro {
  public:
   SimulatedGyro(const GyroNoiseModel& model, unsigned seed);
 
-  // Samples in [t0, t1) for a robot whose yaw changes by `true_yaw_change` over the interval.
+  // Samples in [t0, t1) for a robot whose yaw changes by `true_yaw_change` over the interval;
+  // none when that would be more than kMaxSamples (a gap in the log, not an interval to cover).
+  static constexpr double kMaxSamples = 1e5;
   std::vector<GyroSample> samples(double t0, double t1, double true_yaw_change);
   // The yaw change the gyro reports over [t0, t1) (its samples integrated).
   double integratedYaw(double t0, double t1, double true_yaw_change);

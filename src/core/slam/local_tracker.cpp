@@ -55,6 +55,14 @@ CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& ce
   return seed_matcher_->match(points, window, params_.seed.min_score);
 }
 
+bool LocalTracker::seedConfirms(const ScanStep& step) const {
+  const SeedParams& sp = params_.seed;
+  const Pose2D moved = step.seed.inverse().compose(step.match.pose);
+  return std::isfinite(step.match.pose.x) && step.match.covariance.allFinite() &&
+         step.match.goodness >= sp.confirmed_min_goodness && std::hypot(moved.x, moved.y) <= sp.confirm_xy &&
+         std::abs(moved.yaw) <= sp.confirm_yaw;
+}
+
 bool LocalTracker::scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction) {
   if (!params_.seed.enabled) return false;
   const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), params_.seed.resolution);
@@ -122,6 +130,12 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       }
     }
     step.match = matcher_.match(scan, guess, step.seeded ? sp.icp_correspondence : 0.0);
+    if (!step.match.ok && step.seeded && seedConfirms(step)) {
+      // Scans far apart overlap little, so ICP pairs few points; when it lands where the
+      // correlative search put the scan, two methods agree and the match stands.
+      step.match.ok = true;
+      step.match.reason.clear();
+    }
     if (step.match.ok) {
       // A doubted prediction is worthless as a prior: let the match decide.
       if (step.odometry_doubted) ekf_.reset(ekf_.pose(), ekf_.covariance() + Eigen::Matrix3d::Identity());

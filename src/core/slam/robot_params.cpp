@@ -57,6 +57,9 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"seed_resolution", &seed.resolution},
       {"seed_sigma", &seed.sigma},
       {"seed_icp_correspondence", &seed.icp_correspondence},
+      {"seed_confirm_xy", &seed.confirm_xy},
+      {"seed_confirm_yaw", &seed.confirm_yaw},
+      {"seed_confirmed_min_goodness", &seed.confirmed_min_goodness},
       {"odometry_calibration", &p.odometry_calibration.enabled},
       {"odometry_calibration_forgetting", &p.odometry_calibration.forgetting},
       {"odometry_calibration_min_distance", &p.odometry_calibration.min_distance},
@@ -104,7 +107,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
 const std::vector<std::string>& rosLayerParamNames() {
   static const std::vector<std::string> names = {
       "map_frame", "odom_frame", "base_frame", "publish_tf", "transform_tolerance",
-      "map_publish_rate", "max_time_jump", "diagnostics_period"};
+      "map_publish_rate", "max_time_jump", "restart_scans", "future_tolerance", "diagnostics_period"};
   return names;
 }
 

@@ -16,6 +16,7 @@ std::vector<GyroSample> SimulatedGyro::samples(double t0, double t1, double true
   std::vector<GyroSample> out;
   const double period = 1.0 / model_.rate_hz;
   if (!(t1 > t0)) return out;
+  if ((t1 - t0) * model_.rate_hz > kMaxSamples) return out;  // a gap, not an interval a gyro covers
   const double rate = true_yaw_change / (t1 - t0);
   // Discrete white noise of a rate gyro sampled at f: sigma = density * sqrt(f).
   std::normal_distribution<double> white(0.0, model_.noise_density * kDeg * std::sqrt(model_.rate_hz));

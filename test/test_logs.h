@@ -1,0 +1,14 @@
+// The real logs the front-end tests share, read once per test binary.
+#pragma once
+
+#include "mrslam/slam/robot_log.h"
+#include "test_data.h"
+
+namespace mrslam::test {
+
+inline const slam::RobotLog& intelLog() {
+  static const slam::RobotLog log = slam::readRobotLog(dataPath("logs/carmen_corrected/intel-corrected.log.gz"));
+  return log;
+}
+
+}  // namespace mrslam::test
