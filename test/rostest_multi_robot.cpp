@@ -18,6 +18,7 @@
 #include <mrslam/LocalMapShare.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
+#include <sensor_msgs/LaserScan.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
 #include <tf2/utils.h>
@@ -49,6 +50,7 @@ struct Robot : mrslam::bench::RobotTrack {
   std::map<std::string, PeerStatus> peers;
   nav_msgs::OccupancyGrid::ConstPtr merged;
   ros::WallTime last_status;  // when its merge_status last arrived: its manager is alive
+  int slam_resets = 0, slam_rejected = 0;  // from the SLAM nodelet's diagnostics
   size_t poses_seen = 0;      // pose messages received (the bag is over when this stops)
   std::vector<ros::Subscriber> subs;
 };
@@ -57,6 +59,22 @@ class MultiRobotTest : public ::testing::Test {
  protected:
   std::mutex mutex;
   std::map<std::string, Robot> robots;
+
+  ros::Subscriber diagnostics_sub;
+
+  void subscribeDiagnostics(ros::NodeHandle& nh) {
+    diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 100, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+      std::lock_guard<std::mutex> lock(mutex);
+      for (const auto& status : m->status)
+        for (auto& [name, robot] : robots) {
+          if (status.name.find(name + "/slam:") == std::string::npos) continue;  // "robot1/slam: slam"
+          for (const auto& kv : status.values) {
+            if (kv.key == "resets (time jumps)") robot.slam_resets = std::stoi(kv.value);
+            if (kv.key == "scans rejected") robot.slam_rejected = std::stoi(kv.value);
+          }
+        }
+    });
+  }
 
   void subscribe(ros::NodeHandle& nh, const std::string& name) {
     Robot& r = robots[name];
@@ -132,6 +150,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   pnh.param("max_error_deg", max_error_deg, max_error_deg);
   pnh.param("timeout", timeout, timeout);
   for (const auto& n : names) subscribe(nh, n);
+  subscribeDiagnostics(nh);
+  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/robot1/scan", 10);
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
   ros::Publisher share_pub = nh.advertise<mrslam::LocalMapShare>("/mrslam/map_share", 10);
@@ -187,6 +207,21 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       }
       // An impostor: another node claiming to be robot2, with another building and a huge version.
       if (version > 20) share_pub.publish(shareOf("robot2", other, 1000000));
+      // Bad scans into robot1: one empty and stamped 0 (it once reset localization but not
+      // the map), one of a million rays. Both must be refused, neither may reset anything.
+      sensor_msgs::LaserScan zero;
+      zero.header.frame_id = "robot1/laser";
+      scan_pub.publish(zero);
+      sensor_msgs::LaserScan huge;
+      huge.header.frame_id = "robot1/laser";
+      huge.header.stamp = ros::Time::now();
+      huge.angle_min = -M_PI;
+      huge.angle_increment = static_cast<float>(2 * M_PI / 1e6);
+      huge.angle_max = huge.angle_min + huge.angle_increment * (1e6 - 1);
+      huge.range_min = 0.1f;
+      huge.range_max = 30.0f;
+      huge.ranges.assign(1000000, 5.0f);
+      scan_pub.publish(huge);
     }
     std::lock_guard<std::mutex> lock(mutex);
     size_t poses = 0;
@@ -247,6 +282,7 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     ASSERT_TRUE(frame) << n << ": too few poses with a reference";
     world[n] = *frame;
   }
+  EXPECT_GE(robots["robot1"].slam_rejected, 2) << "robot1 did not refuse the bad scans";
   for (const auto& n : names) {
     if (!joined) break;
     // The late peer's map frame is the world frame: its truth in robotN/map is T_N^-1. Error
@@ -266,6 +302,7 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   for (const auto& n : names) {
     Robot& r = robots[n];
     EXPECT_LT((ros::WallTime::now() - r.last_status).toSec(), 5.0) << n << ": merge_status stopped (manager died?)";
+    EXPECT_EQ(r.slam_resets, 0) << n << ": a bad scan reset its filter or map";
     ASSERT_TRUE(r.merged) << n << ": no merged map";
     EXPECT_FALSE(r.peers.count("intruder_malformed")) << n << " took a malformed map";
     for (const std::string& id : hostile_ids) EXPECT_FALSE(r.peers.count(id)) << n << " took the map of " << id;

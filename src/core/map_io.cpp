@@ -46,7 +46,10 @@ void checkPnmSize(const std::string& path, const std::string& yaml_path) {
     in >> std::ws;
     while (in.peek() == '#') in.ignore(1 << 20, '\n'), in >> std::ws;
     if (!(in >> v) || v <= 0) fail(path, "malformed PGM header (image of " + yaml_path + ")");
+    // No real map is a million cells on a side; beyond, the products below could overflow.
+    if (v > 1000000 && &v != &values[2]) fail(path, "PGM header claims " + std::to_string(v) + " cells on a side (image of " + yaml_path + ")");
   }
+  if (values[2] > 65535) fail(path, "malformed PGM header: maxval " + std::to_string(values[2]) + " (image of " + yaml_path + ")");
   in.get();  // the single whitespace after maxval
   const long long expected = static_cast<long long>(values[0]) * values[1] * (magic[1] == '6' ? 3 : 1) *
                              (values[2] > 255 ? 2 : 1);

@@ -67,8 +67,11 @@ inline std::optional<Pose2D> lookupPose2D(const tf2_ros::Buffer& buffer, const s
 }
 
 // Why a LaserScan message cannot be used (empty when it can): on top of the core's checks,
-// the ray count must agree with angle_min, angle_max and angle_increment.
-inline std::string scanMsgProblem(const sensor_msgs::LaserScan& msg) {
+// at most max_rays rays, and the ray count must agree with angle_min, angle_max and
+// angle_increment.
+inline std::string scanMsgProblem(const sensor_msgs::LaserScan& msg, size_t max_rays) {
+  if (msg.ranges.size() > max_rays)
+    return std::to_string(msg.ranges.size()) + " rays, more than max_rays (" + std::to_string(max_rays) + ")";
   if (msg.ranges.size() >= 2 && std::isfinite(msg.angle_increment) && msg.angle_increment != 0.0f) {
     const double expected = (static_cast<double>(msg.angle_max) - msg.angle_min) / msg.angle_increment + 1.0;
     if (std::abs(expected - static_cast<double>(msg.ranges.size())) > 1.0)
@@ -105,10 +108,12 @@ inline std::string originMsgProblem(const geometry_msgs::Pose& o) {
 
 // Why a grid message cannot be used (empty when it can): data size, resolution, size limit.
 inline std::string gridMsgProblem(const nav_msgs::OccupancyGrid& msg, int64_t max_cells) {
-  const int64_t cells = static_cast<int64_t>(msg.info.width) * msg.info.height;
   if (!std::isfinite(msg.info.resolution) || !(msg.info.resolution > 0)) return "resolution is not positive";
-  if (cells == 0) return "empty grid";
-  if (cells > max_cells) return "absurd size " + std::to_string(msg.info.width) + " x " + std::to_string(msg.info.height);
+  if (msg.info.width == 0 || msg.info.height == 0) return "empty grid";
+  // Compared by division: width x height of two 32-bit fields can overflow a 64-bit product.
+  if (msg.info.width > max_cells || msg.info.height > max_cells / msg.info.width)
+    return "absurd size " + std::to_string(msg.info.width) + " x " + std::to_string(msg.info.height);
+  const int64_t cells = static_cast<int64_t>(msg.info.width) * msg.info.height;
   if (static_cast<int64_t>(msg.data.size()) != cells)
     return "data size " + std::to_string(msg.data.size()) + " != width x height " + std::to_string(cells);
   return originMsgProblem(msg.info.origin);

@@ -60,6 +60,7 @@ class SlamNodelet : public nodelet::Nodelet {
     pnh.param("max_time_jump", max_time_jump_, 1.0);
     pnh.param("restart_scans", restart_scans_, 3);
     pnh.param("future_tolerance", future_tolerance_, 10.0);
+    pnh.param("max_rays", max_rays_, 10000);
     pnh.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
     pnh.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
     double map_rate = 1.0, period = 1.0;
@@ -213,7 +214,7 @@ class SlamNodelet : public nodelet::Nodelet {
     if (last_scan_time_ && params_.use_imu) integrateGyro(*last_scan_time_, t);
     last_odom_ = odom;
     last_scan_time_ = t;
-    const std::string msg_problem = scanMsgProblem(*msg);
+    const std::string msg_problem = scanMsgProblem(*msg, static_cast<size_t>(std::max(1, max_rays_)));
     if (!msg_problem.empty()) {
       ++rejected_;
       last_problem_ = msg_problem;
@@ -330,7 +331,7 @@ class SlamNodelet : public nodelet::Nodelet {
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
   double transform_tolerance_ = 0.1, max_time_jump_ = 1.0, future_tolerance_ = 10.0, last_back_time_ = 0;
-  int restart_scans_ = 3, going_back_ = 0;
+  int restart_scans_ = 3, going_back_ = 0, max_rays_ = 10000;
   slam::GyroNoiseModel gyro_model_;
   slam::RobotSlamParams params_;
   std::unique_ptr<slam::FrontEnd> robot_;

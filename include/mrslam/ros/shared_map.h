@@ -7,12 +7,16 @@
 // into the message. Like every published message, it must never be modified after publishing.
 #pragma once
 
+#include <boost/make_shared.hpp>
 #include <geometry_msgs/PoseWithCovariance.h>
 #include <mrslam/LocalMapShare.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/message_traits.h>
 #include <ros/serialization.h>
 #include <std_msgs/Header.h>
+
+#include <cstring>
+#include <string>
 
 namespace mrslam {
 
@@ -67,7 +71,17 @@ struct Serializer<mrslam::SharedMap> {
     stream.next(m.header);
     stream.next(m.robot_id);
     auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
-    stream.next(*grid);
+    stream.next(grid->header);
+    stream.next(grid->info);
+    // roscpp's vector reader resizes to the length the message claims before checking that the
+    // message holds it: a peer claiming 4 GB of cells would have them allocated. Checked first.
+    uint32_t cells = 0;
+    stream.next(cells);
+    if (cells > stream.getLength())
+      throw ros::serialization::StreamOverrunException("LocalMapShare claims " + std::to_string(cells) +
+                                                       " cells, the message holds " + std::to_string(stream.getLength()) + " bytes");
+    grid->data.resize(cells);
+    if (cells) std::memcpy(grid->data.data(), stream.advance(cells), cells);
     m.map = grid;
     stream.next(m.pose);
     stream.next(m.version);

@@ -39,9 +39,9 @@ cv::Mat truncatedWallDistance(const cv::Mat& ternary, double reach) {
       if (row[x] != kOccupiedCell) continue;
       const int x0 = std::max(0, x - r), x1 = std::min(ternary.cols - 1, x + r);
       for (int yy = std::max(0, y - r); yy <= std::min(ternary.rows - 1, y + r); ++yy) {
-        float* out = distance.ptr<float>(yy);
-        const float* st = &stamp[static_cast<size_t>(yy - y + r) * side + r - x];
-        for (int xx = x0; xx <= x1; ++xx) out[xx] = std::min(out[xx], st[xx]);
+        float* out = distance.ptr<float>(yy) + x0;
+        const float* st = stamp.data() + static_cast<size_t>(yy - y + r) * side + (x0 - x + r);
+        for (int k = 0; k <= x1 - x0; ++k) out[k] = std::min(out[k], st[k]);
       }
     }
   }

@@ -1,0 +1,28 @@
+// libFuzzer target: a LocalMapShare as it arrives from the network, deserialised into
+// mrslam::SharedMap and put through every check the map-merge nodelet makes before a peer's
+// map reaches the fusion. Contract: a refusal with a reason or a grid the fusion accepts as
+// input (fusion::peerMapProblem empty), never a crash.
+#include <cstdint>
+
+#include "mrslam/fusion/map_fusion.h"
+#include "mrslam/fusion/peer_registry.h"
+#include "mrslam/ros/shared_map.h"
+#include "ros_conversions.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  mrslam::SharedMap share;
+  try {
+    ros::serialization::IStream stream(const_cast<uint8_t*>(data), static_cast<uint32_t>(size));
+    ros::serialization::deserialize(stream, share);
+  } catch (const ros::Exception&) {
+    return 0;  // too short: refused by roscpp before any callback
+  }
+  if (!mrslam::fusion::isValidRobotId(share.robot_id) || !share.map) return 0;
+  if (!mrslam::nodelets::gridMsgProblem(*share.map, 4'000'000).empty()) return 0;
+  const mrslam::OccupancyGrid grid = mrslam::nodelets::gridFromMsg(*share.map);
+  const mrslam::fusion::FusionParams params;
+  if (mrslam::fusion::peerMapProblem(grid, 0.05, params).empty() && !mrslam::validateGrid(grid).empty())
+    __builtin_trap();  // the fusion would have been handed a grid it cannot take
+  (void)mrslam::fusion::summarize(grid);
+  return 0;
+}
