@@ -270,10 +270,12 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   EXPECT_NE(export_call.response.message.find("leaf voxels"), std::string::npos) << export_call.response.message;
 
   for (const auto& n : names)
-    for (const auto& m : names)
-      if (n != m)
+    for (const auto& m : names) {
+      if (n != m) {
         EXPECT_TRUE(buffer.canTransform(n + "/map", m + "/map", ros::Time(0)))
             << "tf does not connect " << n << "/map to " << m << "/map";
+      }
+    }
 
   std::lock_guard<std::mutex> lock(mutex);
   std::map<std::string, Pose2D> world;
@@ -306,8 +308,9 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     ASSERT_TRUE(r.merged) << n << ": no merged map";
     EXPECT_FALSE(r.peers.count("intruder_malformed")) << n << " took a malformed map";
     for (const std::string& id : hostile_ids) EXPECT_FALSE(r.peers.count(id)) << n << " took the map of " << id;
-    if (n != "robot2" && r.peers.count("robot2"))
+    if (n != "robot2" && r.peers.count("robot2")) {
       EXPECT_LT(r.peers["robot2"].version, 1000000) << n << " took the impostor's map for robot2's";
+    }
     ASSERT_TRUE(r.peers.count("zz_other_building")) << n << " never saw the other building's map";
     EXPECT_FALSE(r.peers["zz_other_building"].accepted) << n << " merged a map of another building";
     for (const auto& m : names) {

@@ -4,6 +4,8 @@
 
 #include <cstdio>
 #include <fstream>
+#include <iterator>
+#include <unistd.h>
 
 #include "mrslam/bench/trajectory_metrics.h"
 #include "mrslam/slam/ekf2d.h"
@@ -290,6 +292,103 @@ TEST(SlamLogCli, RunsARealLogAndRejectsBadInputWithExitTwo) {
   const auto window = test::runCommand(bin + " " + test::dataPath("logs/mines/exp1.dat") + " --window 5:1 --trajectory " + dir + "/t.txt");
   EXPECT_EQ(window.status, 2) << window.output;
   EXPECT_NE(window.output.find("--window 5:1"), std::string::npos) << window.output;
+}
+
+// Inputs that once gave quiet partial results, garbage or a crash (issue 15), each refused
+// with one line naming the file, or reported and exit 3 unless --allow-partial.
+TEST(SlamLogCli, PartialAndMalformedInputIsReportedNotQuietlyUsed) {
+  const std::string bin = MRSLAM_SLAM_LOG_BIN;
+  const std::string dir = ::testing::TempDir();
+  const std::string out = " --trajectory " + dir + "/t.txt";
+  // A .log.gz cut mid-stream.
+  {
+    std::ifstream in(test::dataPath("logs/carmen_corrected/aces-corrected.log.gz"), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir + "/cut.log.gz", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  const auto cut = test::runCommand(bin + " " + dir + "/cut.log.gz" + out);
+  EXPECT_EQ(cut.status, 3) << cut.output;
+  EXPECT_NE(cut.output.find("truncated"), std::string::npos) << cut.output;
+  // A rawlog cut in the middle of an object.
+  {
+    std::ifstream in(test::dataPath("logs/mrpt/2006-01ENE-21-SENA_Telecom_Faculty_one_loop_only.rawlog"), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir + "/cut.rawlog", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  const auto cut_rawlog = test::runCommand(bin + " " + dir + "/cut.rawlog" + out);
+  EXPECT_EQ(cut_rawlog.status, 3) << cut_rawlog.output;
+  EXPECT_EQ(test::runCommand(bin + " " + dir + "/cut.rawlog --allow-partial" + out).status, 0);
+  // A FLASER line announcing 2 beams fewer than it holds, and one with a "nan" range.
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(30);
+  writeCarmenLog(excerpt, dir + "/ok.log");
+  std::ifstream ok(dir + "/ok.log");
+  std::string text((std::istreambuf_iterator<char>(ok)), std::istreambuf_iterator<char>());
+  const size_t flaser = text.find("FLASER 180 ", text.find("FLASER 180 ") + 1);
+  std::string shifted = text, with_nan = text;
+  shifted.replace(flaser, 11, "FLASER 178 ");
+  const size_t first_range = flaser + 11;
+  with_nan.replace(first_range, with_nan.find(' ', first_range) - first_range, "nan");
+  std::ofstream(dir + "/shifted.log") << shifted;
+  std::ofstream(dir + "/nan.log") << with_nan;
+  const auto bad_count = test::runCommand(bin + " " + dir + "/shifted.log" + out);
+  EXPECT_EQ(bad_count.status, 3) << bad_count.output;
+  EXPECT_NE(bad_count.output.find("178 beams announced, but 189 values follow"), std::string::npos) << bad_count.output;
+  const auto nan_range = test::runCommand(bin + " " + dir + "/nan.log" + out);
+  EXPECT_EQ(nan_range.status, 0) << nan_range.output << " (a nan range is a bad beam, not a bad line)";
+  EXPECT_NE(nan_range.output.find("30 of 30 scans used"), std::string::npos) << nan_range.output;
+  // Time stamps that fall: every scan is used, in the order of the lines, and it is said.
+  for (size_t i = 0; i < excerpt.records.size(); ++i) excerpt.records[i].scan.stamp = 1000.0 - 10.0 * i;
+  writeCarmenLog(excerpt, dir + "/falling.log");
+  const auto falling = test::runCommand(bin + " " + dir + "/falling.log" + out);
+  EXPECT_EQ(falling.status, 0) << falling.output;
+  EXPECT_NE(falling.output.find("go backwards"), std::string::npos) << falling.output;
+  EXPECT_NE(falling.output.find("30 of 30 scans used"), std::string::npos) << falling.output;
+  // A failed write (a full disk) exits 2 naming the file.
+  const std::string full = dir + "/full.yaml";
+  std::remove(full.c_str());
+  ASSERT_EQ(symlink("/dev/full", full.c_str()), 0);
+  const auto no_space = test::runCommand(bin + " " + dir + "/ok.log --map " + full + out);
+  EXPECT_EQ(no_space.status, 2) << no_space.output;
+  EXPECT_NE(no_space.output.find("full.yaml: write failed"), std::string::npos) << no_space.output;
+}
+
+TEST(LogToBagCli, OutOfRangeOptionsAndTimesAreRefusedWithNothingLeftBehind) {
+  const std::string bin = MRSLAM_LOG_TO_BAG_BIN;
+  const std::string dir = ::testing::TempDir();
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(20);
+  writeCarmenLog(excerpt, dir + "/ok.log");
+  const std::string bag = dir + "/out.bag";
+  for (const char* options : {"--start-time 5e9", "--start-time inf", "--simulated-imu --imu-rate inf",
+                                     "--simulated-imu --imu-rate 1e9", "--robot r1:5:1", "--robot r1:1000:2000"}) {
+    std::remove(bag.c_str());
+    const auto r = test::runCommand(bin + " " + dir + "/ok.log " + bag + " " + std::string(options));
+    EXPECT_EQ(r.status, 2) << options << ": " << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << options << ": one line, got " << r.output;
+    EXPECT_FALSE(std::ifstream(bag).good()) << options << ": a bag was left behind";
+  }
+  // A time stamp jump past ROS time: refused before anything is written.
+  excerpt.records[10].scan.stamp += 5e9;
+  for (size_t i = 11; i < excerpt.records.size(); ++i) excerpt.records[i].scan.stamp += 5e9;
+  writeCarmenLog(excerpt, dir + "/jump.log");
+  const auto jump = test::runCommand(bin + " " + dir + "/jump.log " + bag + " --simulated-imu");
+  EXPECT_EQ(jump.status, 2) << jump.output;
+  EXPECT_NE(jump.output.find("beyond ROS time"), std::string::npos) << jump.output;
+  // A full disk: exit 2, no unindexed bag.
+  const std::string full = dir + "/full.bag";
+  std::remove(full.c_str());
+  ASSERT_EQ(symlink("/dev/full", full.c_str()), 0);
+  EXPECT_EQ(test::runCommand(bin + " " + dir + "/ok.log " + full).status, 2);
+  ASSERT_EQ(test::runCommand(bin + " " + dir + "/ok.log " + bag + " --simulated-imu").status, 0);
+}
+
+TEST(MapSaverCli, TimeoutsAreValidated) {
+  for (const char* timeout : {"0", "abc", "1e10", "-1"}) {
+    const auto r = test::runCommand(std::string(MRSLAM_MAP_SAVER_BIN) + " /map /tmp/never.yaml --timeout " + std::string(timeout));
+    EXPECT_EQ(r.status, 2) << timeout << ": " << r.output;
+    EXPECT_NE(r.output.find("--timeout"), std::string::npos) << r.output;
+  }
 }
 
 // A real log whose time stamps were printed with too few digits (all scans share one stamp):

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 
 #include "mrslam/bench/pair_maker.h"
@@ -212,6 +213,20 @@ TEST(MergeCli, BadInputGivesOneLineNamingTheFileAndExitTwo) {
   std::ofstream(dir / "short.pgm") << "P5\n400 400\n255\nabc";
   std::ofstream(dir / "size_mismatch.yaml") << "image: short.pgm\nresolution: 0.05\n" << tail;
   std::ofstream(dir / "bad.yaml") << "nonsense_key: 1\n";
+  // Inputs that once crashed, overflowed or printed more than one line (issue 15).
+  std::ofstream(dir / "p2.pgm") << "P2\n100000 100000\n255\n0 0 0\n";
+  std::ofstream(dir / "huge_p2.yaml") << "image: p2.pgm\nresolution: 0.05\n" << tail;
+  std::ofstream(dir / "overflow.pgm") << "P5\n4294967296 4294967296\n255\n";
+  std::ofstream(dir / "overflow.yaml") << "image: overflow.pgm\nresolution: 0.05\n" << tail;
+  {
+    std::ifstream png(test::robotMap("rail_lab").substr(0, test::robotMap("rail_lab").size() - 5) + ".png", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(png)), std::istreambuf_iterator<char>());
+    bytes[60] = static_cast<char>(bytes[60] ^ 0x55);  // inside the image data: its CRC no longer holds
+    std::ofstream(dir / "bad_crc.png", std::ios::binary) << bytes;
+  }
+  std::ofstream(dir / "bad_crc.yaml") << "image: bad_crc.png\nresolution: 0.05\n" << tail;
+  std::ofstream(dir / "far.yaml") << "image: free.pgm\nresolution: 0.05\norigin: [1e300, 0, 0]\n";
+  fs::create_directories(dir / "a_directory.yaml");
   const std::vector<std::pair<std::string, std::string>> cases = {
       {(dir / "missing.yaml").string(), "no such file"},
       {(dir / "broken.yaml").string(), "malformed yaml"},
@@ -220,6 +235,11 @@ TEST(MergeCli, BadInputGivesOneLineNamingTheFileAndExitTwo) {
       {(dir / "all_unknown.yaml").string(), "all unknown"},
       {(dir / "no_edges.yaml").string(), "no obstacle edges"},
       {(dir / "size_mismatch.yaml").string(), "short.pgm"},
+      {(dir / "huge_p2.yaml").string(), "100000 x 100000"},
+      {(dir / "overflow.yaml").string(), "overflow.pgm"},
+      {(dir / "bad_crc.yaml").string(), "bad CRC"},
+      {(dir / "far.yaml").string(), "from the frame"},
+      {(dir / "a_directory.yaml").string(), "not a file"},
   };
   for (const auto& [file, problem] : cases) {
     const test::RunResult r = run(good + " " + file);
@@ -228,6 +248,15 @@ TEST(MergeCli, BadInputGivesOneLineNamingTheFileAndExitTwo) {
     EXPECT_NE(r.output.find(fs::path(file).filename().string()), std::string::npos) << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
   }
+  for (const auto& [file, problem] : cases) {  // no absurd numbers either (an origin of 1e300 once printed 300 digits)
+    const test::RunResult r = run(good + " " + file);
+    EXPECT_LT(r.output.size(), 300u) << r.output;
+  }
+  // A write that fails (a full disk) is an error, not exit 0.
+  fs::create_symlink("/dev/full", dir / "full.yaml");
+  const test::RunResult full = run("-o " + (dir / "full.yaml").string() + " " + good + " " + good);
+  EXPECT_EQ(full.status, 2) << full.output;
+  EXPECT_NE(full.output.find("full.yaml: write failed"), std::string::npos) << full.output;
   EXPECT_EQ(run(good).status, 2);
   EXPECT_EQ(run("--config " + (dir / "bad.yaml").string() + " " + good + " " + good).status, 2);
   EXPECT_NE(run("--config " + (dir / "bad.yaml").string() + " " + good + " " + good).output.find("nonsense_key"),

@@ -51,6 +51,10 @@ struct OccupancyGrid {
   bool empty() const { return width <= 0 || height <= 0; }
 };
 
+// Origins further than this from their frame are refused (m): no map is that large, and cell
+// indices computed from such offsets would overflow.
+constexpr double kMaxOriginMetres = 1e6;
+
 // Checks the invariants every consumer relies on; returns an empty string when the grid
 // is well formed, otherwise a one-line description of what is wrong. `max_cells` guards
 // against absurd sizes sent by a faulty peer.

@@ -19,6 +19,10 @@ std::string validateGrid(const OccupancyGrid& grid, int64_t max_cells) {
   } else if (!std::isfinite(grid.origin.x) || !std::isfinite(grid.origin.y) ||
              !std::isfinite(grid.origin.yaw)) {
     why << "origin is not finite";
+  } else if (std::abs(grid.origin.x) > kMaxOriginMetres || std::abs(grid.origin.y) > kMaxOriginMetres) {
+    // Map extents are computed from origins: a planet-sized offset would overflow cell indices.
+    why << "origin (" << grid.origin.x << ", " << grid.origin.y << ") lies more than " << kMaxOriginMetres
+        << " m from the frame";
   } else {
     for (int8_t v : grid.data) {
       if (v < -1 || v > 100) {

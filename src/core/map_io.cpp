@@ -1,10 +1,12 @@
 #include "mrslam/map_io.h"
 
 #include <yaml-cpp/yaml.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -34,22 +36,28 @@ T readScalarOr(const YAML::Node& root, const char* key, T fallback, const std::s
   return root[key] ? readScalar<T>(root, key, file) : fallback;
 }
 
-// A binary PGM/PPM shorter than its header promises is reported as such (OpenCV would only
-// say it cannot read it, and print to stderr while doing so).
-void checkPnmSize(const std::string& path, const std::string& yaml_path) {
+constexpr long long kMaxImageCells = 400LL * 1000 * 1000;  // as validateGrid's limit
+
+// A PGM/PPM whose header claims more cells than any map has, or a binary one shorter than its
+// header promises, is reported as such (OpenCV would only say it cannot read it, and print to
+// stderr while doing so).
+void checkPnmHeader(const std::string& path, const std::string& yaml_path) {
   std::ifstream in(path, std::ios::binary);
   char magic[2] = {0, 0};
   in.read(magic, 2);
-  if (magic[0] != 'P' || (magic[1] != '5' && magic[1] != '6')) return;
+  if (magic[0] != 'P' || (magic[1] != '2' && magic[1] != '5' && magic[1] != '6')) return;
   long values[3];
   for (long& v : values) {
     in >> std::ws;
     while (in.peek() == '#') in.ignore(1 << 20, '\n'), in >> std::ws;
     if (!(in >> v) || v <= 0) fail(path, "malformed PGM header (image of " + yaml_path + ")");
-    // No real map is a million cells on a side; beyond, the products below could overflow.
-    if (v > 1000000 && &v != &values[2]) fail(path, "PGM header claims " + std::to_string(v) + " cells on a side (image of " + yaml_path + ")");
   }
   if (values[2] > 65535) fail(path, "malformed PGM header: maxval " + std::to_string(values[2]) + " (image of " + yaml_path + ")");
+  // Compared by division, so that no product of header values can overflow.
+  if (values[0] > kMaxImageCells || values[1] > kMaxImageCells / values[0])
+    fail(path, "image header claims " + std::to_string(values[0]) + " x " + std::to_string(values[1]) +
+                   " cells, beyond the limit of " + std::to_string(kMaxImageCells) + " (image of " + yaml_path + ")");
+  if (magic[1] == '2') return;  // ASCII: OpenCV reports a short one itself
   in.get();  // the single whitespace after maxval
   const long long expected = static_cast<long long>(values[0]) * values[1] * (magic[1] == '6' ? 3 : 1) *
                              (values[2] > 255 ? 2 : 1);
@@ -59,6 +67,43 @@ void checkPnmSize(const std::string& path, const std::string& yaml_path) {
     fail(path, "image data truncated: header says " + std::to_string(values[0]) + " x " +
                    std::to_string(values[1]) + " cells, file holds " + std::to_string(size - header) +
                    " of " + std::to_string(expected) + " bytes (image of " + yaml_path + ")");
+}
+
+uint32_t bigEndian32(const unsigned char* p) {
+  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | uint32_t{p[3]};
+}
+
+// A PNG is checked chunk by chunk (lengths, CRCs, IHDR first, IEND present, the size IHDR
+// claims) before libpng sees it: libpng reports what it cannot read on stderr, in lines of its
+// own, and the contract of the tools is one line naming the file.
+void checkPngStructure(const std::string& path, const std::string& yaml_path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  static const char kSignature[] = "\x89PNG\r\n\x1a\n";
+  if (bytes.size() < 8 || bytes.compare(0, 8, kSignature, 8) != 0) return;  // not a PNG: OpenCV decides
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  const std::string where = " (image of " + yaml_path + ")";
+  size_t at = 8;
+  bool first = true, end = false;
+  while (!end) {
+    if (at + 12 > bytes.size()) fail(path, "PNG truncated: chunk header at byte " + std::to_string(at) + where);
+    const uint32_t length = bigEndian32(data + at);
+    if (length > bytes.size() - at - 12) fail(path, "PNG truncated or corrupt: chunk of " + std::to_string(length) + " bytes at byte " + std::to_string(at) + where);
+    const std::string type = bytes.substr(at + 4, 4);
+    const uint32_t crc = bigEndian32(data + at + 8 + length);
+    if (crc != crc32(0L, data + at + 4, length + 4)) fail(path, "PNG corrupt: bad CRC in chunk '" + type + "'" + where);
+    if (first && type != "IHDR") fail(path, "PNG corrupt: the first chunk is not IHDR" + where);
+    if (type == "IHDR") {
+      if (length < 13) fail(path, "PNG corrupt: short IHDR" + where);
+      const long long width = bigEndian32(data + at + 8), height = bigEndian32(data + at + 12);
+      if (width == 0 || height == 0 || width > kMaxImageCells || height > kMaxImageCells / width)
+        fail(path, "image header claims " + std::to_string(width) + " x " + std::to_string(height) +
+                       " cells, beyond the limit of " + std::to_string(kMaxImageCells) + where);
+    }
+    end = type == "IEND";
+    first = false;
+    at += 12 + length;
+  }
 }
 
 // Writes `bytes` to `path`, every failure (cannot open, short write, flush or close) an error.
@@ -76,6 +121,7 @@ void writeFile(const std::string& path, const std::string& bytes) {
 
 OccupancyGrid loadMap(const std::string& yaml_path) {
   if (!fs::exists(yaml_path)) fail(yaml_path, "no such file");
+  if (!fs::is_regular_file(yaml_path)) fail(yaml_path, "not a file (a map yaml was expected)");
   YAML::Node root;
   try {
     root = YAML::LoadFile(yaml_path);
@@ -112,7 +158,9 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
   fs::path image_path(image_name);
   if (image_path.is_relative()) image_path = fs::path(yaml_path).parent_path() / image_path;
   if (!fs::exists(image_path)) fail(image_path.string(), "image named in " + yaml_path + " not found");
-  checkPnmSize(image_path.string(), yaml_path);
+  if (!fs::is_regular_file(image_path)) fail(image_path.string(), "not a file (image of " + yaml_path + ")");
+  checkPnmHeader(image_path.string(), yaml_path);
+  checkPngStructure(image_path.string(), yaml_path);
   cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_UNCHANGED);
   if (image.empty()) fail(image_path.string(), "unreadable image (image of " + yaml_path + ")");
   if (image.depth() != CV_8U) fail(image_path.string(), "only 8-bit images are supported");
@@ -168,6 +216,8 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
       }
     }
   }
+  const std::string invalid = validateGrid(grid);
+  if (!invalid.empty()) fail(yaml_path, invalid);
   return grid;
 }
 

@@ -34,6 +34,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -222,11 +223,12 @@ int main(int argc, char** argv) {
     std::cout << kUsage;
     return 0;
   }
+  if (argc < 3) return fail(std::string("missing arguments\n") + kUsage);
   Options o;
   try {
     o = parseOptions(argc, argv);
   } catch (const std::exception& e) {
-    return fail(std::string(e.what()) + "\n" + kUsage);
+    return fail(e.what());
   }
   slam::RobotLog log;
   try {
@@ -257,10 +259,12 @@ int main(int argc, char** argv) {
                   std::to_string(last) + " s, beyond ROS time (the log's time stamps jump too far)");
   }
   const auto odometry = slam::chainOdometry(log);
-  rosbag::Bag bag;
+  // rosbag::Bag's destructor closes the bag, and closing a bag whose writes failed throws from
+  // the destructor (std::terminate): after a failure the object is deliberately not destroyed.
+  auto bag = std::make_unique<rosbag::Bag>();
   try {
-    bag.open(o.bag_path, rosbag::bagmode::Write);
-    bag.setCompression(rosbag::compression::LZ4);
+    bag->open(o.bag_path, rosbag::bagmode::Write);
+    bag->setCompression(rosbag::compression::LZ4);
     for (size_t w = 0; w < o.windows.size(); ++w) {
       const std::string& ns = o.windows[w].robot;
       slam::GyroNoiseModel model;
@@ -270,16 +274,19 @@ int main(int argc, char** argv) {
         const size_t k = scans[w][i].index;
         if (o.simulated_imu && i > 0) {
           const double change = Pose2D::normalizeAngle(log.records[k].reference.yaw - log.records[scans[w][i - 1].index].reference.yaw);
-          writeGyro(bag, ns, gyro, model, scans[w][i - 1].stamp, scans[w][i].stamp, change);
+          writeGyro(*bag, ns, gyro, model, scans[w][i - 1].stamp, scans[w][i].stamp, change);
         }
-        writeScan(bag, ns, log, k, odometry[k], ros::Time(scans[w][i].stamp));
+        writeScan(*bag, ns, log, k, odometry[k], ros::Time(scans[w][i].stamp));
       }
       std::cout << ns << ": " << scans[w].size() << " scans from " << o.windows[w].start << " s to "
                 << (o.windows[w].end > 0 ? std::to_string(o.windows[w].end) + " s" : std::string("the end")) << " of "
                 << o.log_path << "\n";
     }
-    bag.close();
+    bag->close();
   } catch (const std::exception& e) {
+    static rosbag::Bag* abandoned = nullptr;  // see above: never destroyed, yet still referenced
+    abandoned = bag.release();
+    (void)abandoned;
     std::remove(o.bag_path.c_str());
     return fail(o.bag_path + ": write failed (" + std::string(e.what()).substr(0, 200) + "); nothing kept");
   }

@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
     const Outcome& o = outcomes[i];
     const Pose2D pose = o.pose_in_a.value_or(o.last.pose);
     if (json) {
-      std::printf("{\"map\": %s, \"accepted\": %s, \"x\": %.4f, \"y\": %.4f, \"yaw\": %.6f, "
+      std::printf("{\"map\": %s, \"accepted\": %s, \"x\": %.10g, \"y\": %.10g, \"yaw\": %.8g, "
                   "\"acceptance\": %.4f, \"time_ms\": %.1f%s%s}\n",
                   jsonString(files[i]).c_str(), o.pose_in_a ? "true" : "false", pose.x, pose.y, pose.yaw,
                   o.last.verdict.acceptance, o.time_ms,

@@ -110,7 +110,6 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
   // Rotation spectra want angular detail: the finest level within spectrum_max_cells.
   const int spectrum_level = std::min(coarse, levelFor(ternary_a, ternary_b, params.spectrum_max_cells));
   const std::vector<cv::Mat> pyr_a = pyramid(ternary_a, fourier_level + 1), pyr_b = pyramid(ternary_b, fourier_level + 1);
-  const double coarse_scale = std::pow(2.0, coarse);
 
   stage("prepare");
 

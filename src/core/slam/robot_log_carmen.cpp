@@ -57,8 +57,8 @@ std::string parseFlaser(const std::string& line, LaserScan& scan, Pose2D& refere
   const size_t n = static_cast<size_t>(count);
   const size_t fields = tokens.size() - 2;  // after "FLASER n"
   if (fields != n + 7 && fields != n + 9)
-    return "malformed FLASER line skipped (" + std::to_string(n) + " beams announced, " +
-           std::to_string(static_cast<long>(fields) - 7) + " values present)";
+    return "malformed FLASER line skipped (" + std::to_string(n) + " beams announced, but " + std::to_string(fields) +
+           " values follow the count where " + std::to_string(n + 7) + " or " + std::to_string(n + 9) + " belong)";
   scan.ranges.resize(n);
   double v[7];
   for (size_t i = 0; i < n; ++i) {

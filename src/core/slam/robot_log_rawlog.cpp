@@ -4,21 +4,64 @@
 #include <mrpt/obs/CObservation2DRangeScan.h>
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CRawlog.h>
+#include <mrpt/io/CFileGZInputStream.h>
+#include <mrpt/obs/CActionCollection.h>
+#include <mrpt/obs/CSensoryFrame.h>
+#include <mrpt/serialization/CArchive.h>
 #include <mrpt/system/datetime.h>
+#include <zlib.h>
+
+#include <vector>
 
 #include "mrslam/slam/robot_log.h"
 
 namespace mrslam::slam {
 
+namespace {
+
+// The rawlog's uncompressed length, and why its gzip stream ends early (empty when it does not).
+std::pair<uint64_t, std::string> uncompressedLength(const std::string& path) {
+  gzFile file = gzopen(path.c_str(), "rb");
+  if (!file) return {0, "cannot open"};
+  std::vector<char> buffer(1 << 16);
+  uint64_t total = 0;
+  int n = 0;
+  while ((n = gzread(file, buffer.data(), static_cast<unsigned>(buffer.size()))) > 0) total += static_cast<uint64_t>(n);
+  int code = Z_OK;
+  const char* message = gzerror(file, &code);
+  const std::string error = (n < 0 || (code != Z_OK && code != Z_STREAM_END)) ? std::string(message ? message : "read error") : "";
+  gzclose(file);
+  return {total, error};
+}
+
+}  // namespace
+
 RobotLog readMrptRawlog(const std::string& path) {
+  // Read object by object (MRPT's own loader stops quietly at a truncated object): a file that
+  // ends inside an object, or a gzip stream cut short, is reported as truncated.
+  const auto [length, gzip_error] = uncompressedLength(path);
   mrpt::obs::CRawlog rawlog;
-  bool loaded = false;
+  std::string truncated = gzip_error;
   try {
-    loaded = rawlog.loadFromRawLogFile(path);
+    mrpt::io::CFileGZInputStream stream(path);
+    auto archive = mrpt::serialization::archiveFrom(stream);
+    for (;;) {
+      const uint64_t before = stream.getPosition();
+      mrpt::serialization::CSerializable::Ptr object;
+      try {
+        object = archive.ReadObject();
+      } catch (const mrpt::serialization::CExceptionEOF&) {
+        if (before < length && truncated.empty()) truncated = "ends inside an object";
+        break;
+      }
+      if (auto actions = std::dynamic_pointer_cast<mrpt::obs::CActionCollection>(object)) rawlog.insert(*actions);
+      else if (auto frame = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(object)) rawlog.insert(*frame);
+      else if (auto observation = std::dynamic_pointer_cast<mrpt::obs::CObservation>(object)) rawlog.insert(observation);
+    }
   } catch (const std::exception& e) {
-    throw LogError(path + ": cannot read rawlog (" + std::string(e.what()).substr(0, 200) + ")");
+    if (rawlog.size() == 0) throw LogError(path + ": cannot read rawlog (" + std::string(e.what()).substr(0, 200) + ")");
+    if (truncated.empty()) truncated = std::string(e.what()).substr(0, 120);
   }
-  if (!loaded) throw LogError(path + ": cannot open or parse rawlog");
   RobotLog log;
   log.path = path;
   log.format = "rawlog";
@@ -60,6 +103,9 @@ RobotLog readMrptRawlog(const std::string& path) {
       log.records.push_back(std::move(record));
     }
   }
+  if (!truncated.empty())
+    log.warnings.push_back(path + ": input ends early after " + std::to_string(rawlog.size()) + " entries (" + truncated +
+                           "): the rawlog is truncated or corrupt");
   if (log.records.empty()) throw LogError(path + ": no 2D range scan in rawlog");
   return log;
 }
