@@ -54,7 +54,7 @@ class MapShareNodelet : public nodelet::Nodelet {
     share_pub_.publish(SharedMap::ConstPtr(share));
   }
 
-  std::mutex mutex_;
+  std::mutex mutex_;  // guards latest_map_, shared_map_, pose_ and version_ (callbacks and timer)
   std::string robot_id_;
   nav_msgs::OccupancyGrid::ConstPtr latest_map_, shared_map_;
   geometry_msgs::PoseWithCovariance pose_;
