@@ -10,7 +10,10 @@
 // connects every robot's map frame from every other; merged maps are published; a peer that
 // sends a malformed grid is refused and one that sends a map of another building is rejected;
 // peers sending maps the fusion must refuse (they once killed every manager) are refused and
-// every robot's merge_status keeps coming; an impostor claiming robot2's id is refused.
+// every robot's merge_status keeps coming; an impostor claiming robot2's id is refused (also
+// after the bag ends and robot2 stops sharing); scans stamped 0 or of a million rays are
+// refused and reset nothing; a second node's well-formed scans on /robot1/scan and its forged
+// odometry jump on /tf are refused while the bag plays, and robot1 still merges at the truth.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -23,6 +26,7 @@
 #include <std_srvs/Trigger.h>
 #include <tf2/utils.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <limits>
@@ -51,6 +55,7 @@ struct Robot : mrslam::bench::RobotTrack {
   nav_msgs::OccupancyGrid::ConstPtr merged;
   ros::WallTime last_status;  // when its merge_status last arrived: its manager is alive
   int slam_resets = 0, slam_rejected = 0;  // from the SLAM nodelet's diagnostics
+  int impostor_scans = 0, impostor_odometry = 0;
   size_t poses_seen = 0;      // pose messages received (the bag is over when this stops)
   std::vector<ros::Subscriber> subs;
 };
@@ -71,6 +76,8 @@ class MultiRobotTest : public ::testing::Test {
           for (const auto& kv : status.values) {
             if (kv.key == "resets (time jumps)") robot.slam_resets = std::stoi(kv.value);
             if (kv.key == "scans rejected") robot.slam_rejected = std::stoi(kv.value);
+            if (kv.key == "scans refused from a second publisher") robot.impostor_scans = std::stoi(kv.value);
+            if (kv.key == "odometry transforms refused from a second publisher") robot.impostor_odometry = std::stoi(kv.value);
           }
         }
     });
@@ -154,6 +161,7 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/robot1/scan", 10);
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
+  tf2_ros::TransformBroadcaster broadcaster;
   ros::Publisher share_pub = nh.advertise<mrslam::LocalMapShare>("/mrslam/map_share", 10);
   ros::AsyncSpinner spinner(2);
   spinner.start();
@@ -222,6 +230,30 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       huge.range_max = 30.0f;
       huge.ranges.assign(1000000, 5.0f);
       scan_pub.publish(huge);
+      const bool bag_playing = poses_seen > 30 && (ros::WallTime::now() - poses_changed).toSec() < 2.5;  // checked a loop ago
+      if (version > 10 && bag_playing) {
+        // A second node feeding robot1 well-formed scans of a place it never saw (a round room)
+        // while its odometry jumps 50 m: both would be drawn into its map (the front end
+        // cannot tell them from real ones), so both must be refused as not robot1's own while
+        // robot1's own laser and odometry publish (the bag plays).
+        geometry_msgs::TransformStamped jump;
+        jump.header.stamp = ros::Time::now();
+        jump.header.frame_id = "robot1/odom";
+        jump.child_frame_id = "robot1/base_link";
+        jump.transform.translation.x = 40.0, jump.transform.translation.y = -30.0;
+        jump.transform.rotation.z = std::sin(0.2), jump.transform.rotation.w = std::cos(0.2);
+        broadcaster.sendTransform(jump);
+        sensor_msgs::LaserScan fake;
+        fake.header.frame_id = "robot1/laser";
+        fake.header.stamp = ros::Time::now();
+        fake.angle_min = -M_PI / 2;
+        fake.angle_increment = static_cast<float>(M_PI / 180);
+        fake.angle_max = fake.angle_min + fake.angle_increment * 180;
+        fake.range_min = 0.1f;
+        fake.range_max = 30.0f;
+        fake.ranges.assign(181, 2.5f);
+        scan_pub.publish(fake);
+      }
     }
     std::lock_guard<std::mutex> lock(mutex);
     size_t poses = 0;
@@ -235,6 +267,14 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
           settled = false;
   }
   EXPECT_TRUE(settled) << "the bag did not end, or not every estimate came to describe the final maps";
+  if (!settled) {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& n : names)
+      for (const auto& m : names)
+        if (n != m)
+          std::printf("%s <- %s: known %d accepted %d current %d\n", n.c_str(), m.c_str(), static_cast<int>(robots[n].peers.count(m)),
+                      robots[n].peers[m].accepted, robots[n].peers[m].current);
+  }
 
   // A peer joins late, then restarts (its version counter starts again).
   const mrslam::OccupancyGrid reference = mrslam::loadMap(data_dir + "/maps/reference/intel.yaml");
@@ -285,6 +325,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     world[n] = *frame;
   }
   EXPECT_GE(robots["robot1"].slam_rejected, 2) << "robot1 did not refuse the bad scans";
+  EXPECT_GE(robots["robot1"].impostor_scans, 1) << "robot1 used scans from a second publisher";
+  EXPECT_GE(robots["robot1"].impostor_odometry, 1) << "robot1 used odometry from a second publisher";
   for (const auto& n : names) {
     if (!joined) break;
     // The late peer's map frame is the world frame: its truth in robotN/map is T_N^-1. Error

@@ -10,6 +10,7 @@
 #include "mrslam/fusion/peer_registry.h"
 #include "mrslam/map_io.h"
 #include "mrslam/octomap_export.h"
+#include "mrslam/publisher_claim.h"
 #include "test_data.h"
 
 namespace mrslam::fusion {
@@ -182,6 +183,20 @@ TEST(PeerRegistry, RobotIdsMustBeTfPrefixes) {
 
 namespace mrslam {
 namespace {
+
+TEST(PublisherClaim, TheFirstPublisherHoldsANameUntilItFallsSilent) {
+  PublisherClaim claim;
+  EXPECT_FALSE(claim.heldByAnother("/robot1/laser_driver", 0.0, 5.0)) << "nobody holds it yet";
+  claim.take("/robot1/laser_driver", 0.0);
+  EXPECT_FALSE(claim.heldByAnother("/robot1/laser_driver", 1.0, 5.0));
+  claim.take("/robot1/laser_driver", 1.0);
+  EXPECT_TRUE(claim.heldByAnother("/intruder", 3.0, 5.0));
+  EXPECT_TRUE(claim.heldByAnother("/intruder", 5.9, 5.0)) << "silent for 4.9 s of 5";
+  EXPECT_FALSE(claim.heldByAnother("/laser_driver_restarted", 6.1, 5.0)) << "the holder fell silent";
+  claim.take("/laser_driver_restarted", 6.1);
+  EXPECT_EQ(claim.holder(), "/laser_driver_restarted");
+  EXPECT_TRUE(claim.heldByAnother("/robot1/laser_driver", 6.2, 5.0));
+}
 
 TEST(OctomapExport, RealMapWallsBecomeOccupiedColumnsAndFreeCellsFree) {
   const OccupancyGrid grid = loadMap(test::referenceMap("intel"));

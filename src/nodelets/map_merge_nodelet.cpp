@@ -15,8 +15,9 @@
 // checks the fusion makes (fusion::peerMapProblem) before it replaces the peer's last good map;
 // a refused map is counted and named in diagnostics, and a peer refused bad_maps_to_quarantine
 // times in a row is not listened to for quarantine_period s. A robot id belongs to the node that
-// first shared under it; another publisher claiming it is refused as an impostor. Anything the worker still throws
-// is caught, counted and logged with the peer it came from; the worker goes on.
+// first shared under it; another publisher claiming it is refused as an impostor while the
+// holder shares or is still registered with the master. Anything the worker still throws is
+// caught, counted and logged with the peer it came from; the worker goes on.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -38,7 +39,9 @@
 #include "mrslam/fusion/peer_quarantine.h"
 #include "mrslam/fusion/peer_registry.h"
 #include "mrslam/octomap_export.h"
+#include "mrslam/publisher_claim.h"
 #include "mrslam/ros/shared_map.h"
+#include "master_query.h"
 #include "ros_conversions.h"
 
 namespace mrslam::nodelets {
@@ -59,6 +62,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     pnh.param<std::string>("robot_id", robot_id_, "robot1");
     pnh.param<std::string>("map_frame", map_frame_, robot_id_ + "/map");
     pnh.param<std::string>("share_topic", topic, "/mrslam/map_share");
+    share_topic_ = nh.resolveName(topic);
     pnh.param<std::string>("fusion_config", fusion_config, "");
     pnh.param<std::string>("octomap_path", octomap_path_, "/tmp/" + robot_id_ + "_merged_map.bt");
     pnh.param("max_peer_cells", max_peer_cells_, 64.0e6);
@@ -126,20 +130,16 @@ class MapMergeNodelet : public nodelet::Nodelet {
                 /*count_against_peer=*/false);
       return;
     }
+    if (heldByAnother(id, publisher)) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++impostor_shares_;
+      last_problem_ = "map of '" + id + "' from " + printable(publisher) + " refused: the id belongs to " +
+                      printable(owners_[id].holder());
+      NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return;
+    }
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      // A robot id belongs to the node that first shared under it (while it keeps sharing): a
-      // second publisher claiming it is an impostor, refused and reported, never merged, and
-      // not counted against the real peer.
-      const auto owner = owners_.find(id);
-      if (owner != owners_.end() && owner->second.publisher != publisher &&
-          ros::WallTime::now().toSec() - owner->second.last_heard < owner_timeout_) {
-        ++impostor_shares_;
-        last_problem_ = "map of '" + id + "' from " + printable(publisher) + " refused: the id belongs to " +
-                        printable(owner->second.publisher);
-        NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
-        return;
-      }
       if (quarantine_.isQuarantined(id, ros::WallTime::now().toSec())) {
         ++quarantined_shares_;
         return;
@@ -161,9 +161,39 @@ class MapMergeNodelet : public nodelet::Nodelet {
     // Only the newest map of each peer is kept; the worker converts it when it gets to it, so
     // the callback never copies a grid and maps superseded in the meantime are never copied.
     std::lock_guard<std::mutex> lock(mutex_);
-    owners_[id] = Owner{publisher, ros::WallTime::now().toSec()};  // (re)claimed: the owner was silent
+    owners_[id].take(publisher, ros::WallTime::now().toSec());
     pending_[id] = share;
     wake_.notify_one();
+  }
+
+  // A robot id belongs to the node that first shared under it: a second publisher claiming it
+  // is an impostor, refused and reported, never merged, and not counted against the real peer.
+  // The holder keeps the id while it shares, and while the master still lists it as a
+  // publisher of the share topic (a robot whose map stops changing stops sharing); a holder
+  // silent for owner_timeout and gone from the master frees it (a peer restarted under a new
+  // node name takes it over).
+  bool heldByAnother(const std::string& id, const std::string& publisher) {
+    std::string holder;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const PublisherClaim& owner = owners_[id];
+      if (owner.heldByAnother(publisher, ros::WallTime::now().toSec(), owner_timeout_)) return true;
+      if (owner.holder().empty() || owner.holder() == publisher) return false;
+      holder = owner.holder();
+    }
+    return stillPublishing(holder);
+  }
+
+  // Whether the master lists `node` as a publisher of the share topic (asked at most every 2 s:
+  // an impostor's flood must not become a flood of calls to the master). Unknown counts as yes.
+  bool stillPublishing(const std::string& node) {
+    std::lock_guard<std::mutex> lock(master_mutex_);  // not mutex_: the callbacks never wait for the master
+    const double now = ros::WallTime::now().toSec();
+    if (now - master_asked_ >= 2.0) {
+      master_publishers_ = publishersOf(share_topic_);
+      master_asked_ = now;
+    }
+    return !master_publishers_ || master_publishers_->count(node);
   }
 
   // A map of `id` cannot be used: counted, named in diagnostics, logged (throttled) and, when
@@ -193,13 +223,6 @@ class MapMergeNodelet : public nodelet::Nodelet {
     ++faults_;
     last_problem_ = where + ": " + what;
     NODELET_ERROR_THROTTLE(5.0, "caught: %s", last_problem_.c_str());
-  }
-
-  // An id as it may appear in a log line: printable ASCII, at most 64 characters.
-  static std::string printable(const std::string& id) {
-    std::string out;
-    for (char c : id.substr(0, 64)) out += (c >= 32 && c < 127) ? c : '?';
-    return id.size() > 64 ? out + "..." : out;
   }
 
   // What the callbacks left for the worker, taken under the lock in one go.
@@ -439,21 +462,25 @@ class MapMergeNodelet : public nodelet::Nodelet {
     status.add("tf parent", parent ? *parent + "/map" : std::string("none (root)"));
   }
 
+  // Lock rules. Threads: the ROS callbacks (onOwnMap, onShare, onExport, the diagnostics timer)
+  // and the worker. mutex_ guards every member both touch (registry, quarantine, owners, pending
+  // and own maps, counters, last_problem_, merged_). Only the worker touches merged_due_,
+  // own_changed_since_merge_, last_merged_ and last_status_, without the lock. The worker never
+  // holds mutex_ while it converts a grid, fuses or composes the merged map.
   std::mutex mutex_;
   std::condition_variable wake_;
   std::atomic<bool> stop_{false};
   std::thread worker_;
-  std::string robot_id_, map_frame_, octomap_path_, last_problem_;
+  std::string robot_id_, map_frame_, octomap_path_, last_problem_, share_topic_;
   double max_peer_cells_ = 64e6, merged_map_period_ = 2.0;
   fusion::FusionParams fusion_params_;
   std::unique_ptr<fusion::PeerRegistry> registry_;
   fusion::PeerQuarantine quarantine_;
   int max_peers_ = 32;
-  struct Owner {  // the publisher (ROS node) that holds a robot id, and when it last shared
-    std::string publisher;
-    double last_heard = 0;
-  };
-  std::map<std::string, Owner> owners_;
+  std::map<std::string, PublisherClaim> owners_;  // who holds each robot id
+  std::mutex master_mutex_;  // guards the master's last answer (onShare threads)
+  std::optional<std::set<std::string>> master_publishers_;
+  double master_asked_ = -1e18;
   double owner_timeout_ = 30.0;
   size_t impostor_shares_ = 0;
   nav_msgs::OccupancyGrid::ConstPtr own_msg_;

@@ -18,6 +18,14 @@
 
 namespace mrslam::nodelets {
 
+// A peer-supplied name (robot id, publisher) as it may appear in a log line: printable ASCII,
+// at most 64 characters.
+inline std::string printable(const std::string& name) {
+  std::string out;
+  for (char c : name.substr(0, 64)) out += (c >= 32 && c < 127) ? c : '?';
+  return name.size() > 64 ? out + "..." : out;
+}
+
 inline bool finite(const Pose2D& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.yaw); }
 
 inline geometry_msgs::Quaternion yawToQuaternion(double yaw) {

@@ -10,6 +10,9 @@
 // (nav_msgs/OccupancyGrid, latched, at most map_publish_rate Hz and only when its content
 // changed) and map_metadata, diagnostics.
 //
+// Inputs belong to their publisher: scans from a second node on the scan topic, and odometry
+// transforms from a second node, are refused and counted (input_owner_timeout).
+//
 // Timing: callbacks of different topics run in any order, so nothing is accumulated as it
 // arrives. Each scan waits (tf2 message filter) until odom_frame -> base_frame is known at its
 // stamp; the odometry increment is taken from tf at the two scan stamps and the gyro samples
@@ -33,15 +36,16 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
 
+#include "mrslam/publisher_claim.h"
 #include "mrslam/slam/front_end.h"
 #include "mrslam/slam/simulated_gyro.h"
+#include "guarded_tf_listener.h"
 #include "ros_conversions.h"
 #include "ros_params.h"
 
@@ -61,6 +65,8 @@ class SlamNodelet : public nodelet::Nodelet {
     pnh.param("restart_scans", restart_scans_, 3);
     pnh.param("future_tolerance", future_tolerance_, 10.0);
     pnh.param("max_rays", max_rays_, 10000);
+    pnh.param("trajectory_max_poses", trajectory_max_poses_, 20000);
+    pnh.param("input_owner_timeout", input_owner_timeout_, 5.0);
     pnh.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
     pnh.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
     double map_rate = 1.0, period = 1.0;
@@ -73,7 +79,7 @@ class SlamNodelet : public nodelet::Nodelet {
     }
 
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+    tf_listener_ = std::make_unique<GuardedTransformListener>(*tf_buffer_, odom_frame_, base_frame_, input_owner_timeout_);
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
     pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
     odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 10);
@@ -139,9 +145,9 @@ class SlamNodelet : public nodelet::Nodelet {
     if (covered > 0.9 * (t1 - t0) && t1 > t0) robot_->addGyro(yaw, slam::gyroIncrementVariance(gyro_model_, t1 - t0));
   }
 
-  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  void onScan(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
     try {
-      processScan(msg);
+      processScan(event.getMessage(), event.getPublisherName());
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++faults_;
@@ -181,7 +187,7 @@ class SlamNodelet : public nodelet::Nodelet {
     return "";
   }
 
-  void processScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  void processScan(const sensor_msgs::LaserScan::ConstPtr& msg, const std::string& publisher) {
     std::lock_guard<std::mutex> lock(mutex_);
     const double t = msg->header.stamp.toSec();
     const std::string stamp_problem = stampProblem(msg->header.stamp);
@@ -221,6 +227,19 @@ class SlamNodelet : public nodelet::Nodelet {
       NODELET_ERROR_THROTTLE(5.0, "scan rejected: %s", msg_problem.c_str());
       return;
     }
+    // The scan topic belongs to the node that publishes on it (the laser driver, a bag): well-
+    // formed scans from a second node would be drawn into the map wherever the odometry says,
+    // and the front end cannot tell them from real ones. Checked last, so that a scan the
+    // checks above refuse never claims the topic.
+    const double wall = ros::WallTime::now().toSec();
+    if (scan_owner_.heldByAnother(publisher, wall, input_owner_timeout_)) {
+      ++rejected_, ++impostor_scans_;
+      last_problem_ = "scan from " + printable(publisher) + " refused: the scan topic belongs to " +
+                      printable(scan_owner_.holder());
+      NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return;
+    }
+    scan_owner_.take(publisher, wall);
     const slam::ScanStep step = robot_->processScan(scanFromMsg(*msg));
     if (!step.used) {
       ++rejected_;
@@ -283,11 +302,14 @@ class SlamNodelet : public nodelet::Nodelet {
     if (recent_addresses_.size() > 20) recent_addresses_.pop_front();
   }
 
+  // The latest estimate of the last trajectory_max_poses scans' poses (a robot running for
+  // hours would otherwise publish an ever longer path every second).
   void publishTrajectory(const std::vector<Pose2D>& poses, const std::vector<ros::Time>& stamps) {
     auto path = boost::make_shared<nav_msgs::Path>();
     path->header.frame_id = map_frame_;
     path->header.stamp = stamps.empty() ? ros::Time(0) : stamps.back();
-    for (size_t i = 0; i < poses.size() && i < stamps.size(); ++i) {
+    const size_t n = std::min(poses.size(), stamps.size());
+    for (size_t i = n - std::min(n, static_cast<size_t>(std::max(1, trajectory_max_poses_))); i < n; ++i) {
       geometry_msgs::PoseStamped p;
       p.header.frame_id = map_frame_;
       p.header.stamp = stamps[i];
@@ -318,6 +340,11 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("odometry messages", odometry_messages_);
     status.add("odometry messages with NaN", bad_odometry_);
     status.add("resets (time jumps)", resets_);
+    status.add("scans refused from a second publisher", impostor_scans_);
+    const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
+    status.add("odometry transforms refused from a second publisher", tf_refusals.transforms);
+    status.add("odometry publisher", tf_refusals.holder.empty() ? std::string("none yet") : printable(tf_refusals.holder));
+    status.add("scan publisher", scan_owner_.holder().empty() ? std::string("none yet") : printable(scan_owner_.holder()));
     status.add("faults caught", faults_);
     status.add("maps published", maps_published_);
     status.add("last problem", s.last_problem.empty() ? last_problem_ : s.last_problem);
@@ -327,11 +354,15 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("recent map addresses", addresses);
   }
 
+  // Lock rules. mutex_ guards the front end and every member the callbacks (scan, odometry,
+  // imu, the map and diagnostics timers) share. The map timer takes the map's pieces and the
+  // trajectory under it and composes and publishes them after releasing it, so the scan
+  // callback never waits for a map to be composed.
   std::mutex mutex_;
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
   double transform_tolerance_ = 0.1, max_time_jump_ = 1.0, future_tolerance_ = 10.0, last_back_time_ = 0;
-  int restart_scans_ = 3, going_back_ = 0, max_rays_ = 10000;
+  int restart_scans_ = 3, going_back_ = 0, max_rays_ = 10000, trajectory_max_poses_ = 20000;
   slam::GyroNoiseModel gyro_model_;
   slam::RobotSlamParams params_;
   std::unique_ptr<slam::FrontEnd> robot_;
@@ -341,11 +372,14 @@ class SlamNodelet : public nodelet::Nodelet {
   std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered
   uint64_t published_version_ = ~0ull;
   size_t odometry_messages_ = 0, bad_odometry_ = 0, rejected_ = 0, imu_rejected_ = 0, resets_ = 0, maps_published_ = 0;
+  size_t impostor_scans_ = 0;
+  PublisherClaim scan_owner_;  // the node whose scans are used
+  double input_owner_timeout_ = 5.0;
   size_t faults_ = 0;
   std::string last_problem_;
   std::deque<uintptr_t> recent_addresses_;  // of the last 20 grids published
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<GuardedTransformListener> tf_listener_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   ros::Publisher pose_pub_, odom_pub_, path_pub_, map_pub_, metadata_pub_;
   ros::Subscriber odom_sub_, imu_sub_;
