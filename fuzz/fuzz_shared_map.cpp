@@ -1,15 +1,36 @@
 // libFuzzer target: a LocalMapShare as it arrives from the network, deserialised into
 // mrslam::SharedMap and put through every check the map-merge nodelet makes before a peer's
-// map reaches the fusion. Contract: a refusal with a reason or a grid the fusion accepts as
-// input (fusion::peerMapProblem empty), never a crash.
+// map reaches the fusion; the same bytes also as a CompressedMapShare, inflated as the nodelet
+// does. Contract: a refusal with a reason or a grid the fusion accepts as input
+// (fusion::peerMapProblem empty), never a crash, never more cells than the header claims.
 #include <cstdint>
 
 #include "mrslam/fusion/map_fusion.h"
 #include "mrslam/fusion/peer_registry.h"
+#include "mrslam/ros/compressed_share.h"
 #include "mrslam/ros/shared_map.h"
 #include "ros_conversions.h"
+#include "share_codec.h"
+
+namespace {
+void inflateCompressed(const uint8_t* data, size_t size) {
+  mrslam::ReceivedCompressedShare received;  // the type the merge nodelet subscribes with
+  try {
+    ros::serialization::IStream stream(const_cast<uint8_t*>(data), static_cast<uint32_t>(size));
+    ros::serialization::deserialize(stream, received);
+  } catch (const ros::Exception&) {
+    return;
+  }
+  const mrslam::CompressedMapShare& msg = received.msg;
+  nav_msgs::OccupancyGrid grid;
+  if (mrslam::nodelets::inflateGrid(msg, 4'000'000, grid).empty() &&
+      grid.data.size() != static_cast<size_t>(msg.info.width) * msg.info.height)
+    __builtin_trap();  // inflated to another size than the header claims
+}
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  inflateCompressed(data, size);
   mrslam::SharedMap share;
   try {
     ros::serialization::IStream stream(const_cast<uint8_t*>(data), static_cast<uint32_t>(size));

@@ -15,6 +15,7 @@
 // refused and reset nothing; a second node's well-formed scans on /robot1/scan and its forged
 // odometry jump on /tf are refused while the bag plays, and robot1 still merges at the truth.
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <mrslam/CompressedMapShare.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
@@ -34,6 +35,7 @@
 #include <mutex>
 
 #include "mrslam/bench/peer_frame_truth.h"
+#include "mrslam/cell_codec.h"
 #include "mrslam/map_io.h"
 
 namespace {
@@ -48,6 +50,7 @@ struct PeerStatus {
   double acceptance = 0;
   int version = 0;
   bool current = false;  // the estimate describes both maps as they are now
+  bool stale = false;    // nothing heard from the peer for stale_after
 };
 
 struct Robot : mrslam::bench::RobotTrack {
@@ -65,7 +68,34 @@ class MultiRobotTest : public ::testing::Test {
   std::mutex mutex;
   std::map<std::string, Robot> robots;
 
-  ros::Subscriber diagnostics_sub;
+  ros::Subscriber diagnostics_sub, traffic_sub;
+
+  // What each robot puts on the link between robots (the compressed share topic), in bytes on
+  // the wire, against what the same maps would take uncompressed, over the bag's time.
+  struct Traffic {
+    double bytes = 0, plain_bytes = 0, first = -1, last = -1;
+    size_t shares = 0;
+    uint32_t version = 0;
+  };
+  std::map<std::string, Traffic> traffic;
+
+  void subscribeTraffic(ros::NodeHandle& nh) {
+    traffic_sub = nh.subscribe<mrslam::CompressedMapShare>("/mrslam/map_share_z", 100, [this](const mrslam::CompressedMapShare::ConstPtr& m) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!robots.count(m->robot_id)) return;
+      Traffic& t = traffic[m->robot_id];
+      // New maps only: keyframes (an unchanged map sent again, every 3 s in this test, 30 s by
+      // default) keep coming after the bag's clock has stopped.
+      if (m->version <= t.version) return;
+      t.version = m->version;
+      const double now = ros::Time::now().toSec();
+      if (t.first < 0) t.first = now;
+      t.last = now;
+      ++t.shares;
+      t.bytes += ros::serialization::serializationLength(*m);
+      t.plain_bytes += ros::serialization::serializationLength(*m) - m->cells.size() + static_cast<double>(m->info.width) * m->info.height;
+    });
+  }
 
   void subscribeDiagnostics(ros::NodeHandle& nh) {
     diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 100, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
@@ -123,6 +153,7 @@ class MultiRobotTest : public ::testing::Test {
             p.acceptance = std::stod(v["acceptance"]);
             p.version = std::stoi(v["version"]);
             p.current = v["estimate_current"] == "True";
+            p.stale = v["stale"] == "True";
             peers[status.name] = p;
           }
         }));
@@ -158,6 +189,7 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   pnh.param("timeout", timeout, timeout);
   for (const auto& n : names) subscribe(nh, n);
   subscribeDiagnostics(nh);
+  subscribeTraffic(nh);
   ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/robot1/scan", 10);
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
@@ -192,8 +224,35 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   hostile.back().map.info.origin.orientation.z = std::numeric_limits<double>::quiet_NaN();
   hostile.push_back(shareOf("/robot0", intel, 1));
   hostile.push_back(shareOf("a/evil robot", intel, 1));
+  // Compressed shares that must not inflate: a bomb (100 MB of zeros claimed as 2000 x 2000
+  // cells), cut short, garbage, an unknown encoding.
+  ros::Publisher compressed_pub = nh.advertise<mrslam::CompressedMapShare>("/mrslam/map_share_z", 10);
+  std::vector<mrslam::CompressedMapShare> hostile_compressed;
+  auto compressedOf = [](const std::string& id, uint32_t width, uint32_t height, std::vector<uint8_t> cells) {
+    mrslam::CompressedMapShare share;
+    share.robot_id = id;
+    share.info.resolution = 0.05f;
+    share.info.width = width, share.info.height = height;
+    share.info.origin.orientation.w = 1;
+    share.encoding = "zlib";
+    share.cells = std::move(cells);
+    return share;
+  };
+  {
+    const std::vector<int8_t> zeros(100'000'000, 0);
+    hostile_compressed.push_back(compressedOf("hostile_bomb", 2000, 2000, mrslam::compressCells(zeros.data(), zeros.size(), 9)));
+    std::vector<uint8_t> packed = mrslam::compressCells(intel.data.data(), intel.data.size(), 1);
+    hostile_compressed.push_back(compressedOf("hostile_cut", intel.width, intel.height,
+                                              std::vector<uint8_t>(packed.begin(), packed.begin() + packed.size() / 2)));
+    std::vector<uint8_t> garbage = packed;
+    for (size_t i = 2; i < garbage.size(); i += 7) garbage[i] ^= 0x5a;
+    hostile_compressed.push_back(compressedOf("hostile_garbage", intel.width, intel.height, garbage));
+    hostile_compressed.push_back(compressedOf("hostile_encoding", intel.width, intel.height, packed));
+    hostile_compressed.back().encoding = "lz4";
+  }
   const std::vector<std::string> hostile_ids = {"hostile_resolution", "hostile_all_free", "hostile_value_127",
-                                                "hostile_nan_origin", "/robot0", "a/evil robot", "robot0"};
+                                                "hostile_nan_origin", "/robot0", "a/evil robot", "robot0",
+                                                "hostile_bomb", "hostile_cut", "hostile_garbage", "hostile_encoding"};
 
   // Measured on the final maps: the bag has ended (no pose for 3 s) and every robot's estimate
   // of every peer describes both maps as they are (the merger refreshes a changed map's estimate
@@ -212,6 +271,10 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       for (mrslam::LocalMapShare& h : hostile) {
         h.version = version;
         share_pub.publish(h);
+      }
+      for (mrslam::CompressedMapShare& h : hostile_compressed) {
+        h.version = version;
+        compressed_pub.publish(h);
       }
       // An impostor: another node claiming to be robot2, with another building and a huge version.
       if (version > 20) share_pub.publish(shareOf("robot2", other, 1000000));
@@ -303,6 +366,24 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   EXPECT_TRUE(joined) << "a peer joining late was not merged by every robot";
   EXPECT_TRUE(rejoined) << "a restarted peer was not merged again by every robot";
 
+  // The late peer now falls silent (its link is down): every robot reports it stale and keeps
+  // its estimate, while the real robots, whose maps stopped changing with the bag, keep being
+  // heard through their keyframes (multi_robot.test shortens both periods).
+  bool went_stale = false;
+  for (int i = 0; i < 40 && joined && !went_stale; ++i) {
+    ros::WallDuration(1.0).sleep();
+    went_stale = everyone([](const PeerStatus& p) { return p.stale && p.accepted; });
+  }
+  EXPECT_TRUE(went_stale) << "a silent peer was not reported stale with its estimate kept by every robot";
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& n : names)
+      for (const auto& m : names)
+        if (n != m) {
+          EXPECT_FALSE(robots[n].peers[m].stale) << n << " reports " << m << " stale: no keyframes?";
+        }
+  }
+
   // OctoMap export of robot1's merged map through the service.
   std_srvs::Trigger export_call;
   ASSERT_TRUE(ros::service::call("/robot1/map_merge/export_octomap", export_call)) << "no export service";
@@ -323,6 +404,15 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     const auto frame = mrslam::bench::frameInWorld(robots[n]);
     ASSERT_TRUE(frame) << n << ": too few poses with a reference";
     world[n] = *frame;
+  }
+  for (const auto& n : names) {
+    const Traffic& t = traffic[n];
+    const double seconds = t.last - t.first;
+    ASSERT_GT(seconds, 0) << n << " shared no compressed map";
+    // Rates per second of the bag's clock: what a robot sends when the bag plays in real time.
+    std::printf("%s shares: %zu new maps, %.1f KB/s compressed (%.1f KB/s uncompressed) over %.0f s of the bag\n", n.c_str(),
+                t.shares, t.bytes / seconds / 1000, t.plain_bytes / seconds / 1000, seconds);
+    EXPECT_LE(t.bytes / seconds, 50e3) << n << ": more than 50 KB/s on the link";
   }
   EXPECT_GE(robots["robot1"].slam_rejected, 2) << "robot1 did not refuse the bad scans";
   EXPECT_GE(robots["robot1"].impostor_scans, 1) << "robot1 used scans from a second publisher";

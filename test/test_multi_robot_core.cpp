@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "mrslam/cell_codec.h"
 #include "mrslam/fusion/peer_quarantine.h"
 #include "mrslam/fusion/peer_registry.h"
 #include "mrslam/map_io.h"
@@ -183,6 +184,33 @@ TEST(PeerRegistry, RobotIdsMustBeTfPrefixes) {
 
 namespace mrslam {
 namespace {
+
+// The inter-robot encoding of a grid's cells: lossless on a real map, several times smaller,
+// and a peer's stream inflates to exactly the cells its header claims or is refused.
+TEST(CellCodec, RealMapRoundTripsSmallerAndBadStreamsAreRefused) {
+  const OccupancyGrid map = loadMap(test::referenceMap("intel"));
+  const std::vector<uint8_t> packed = compressCells(map.data.data(), map.data.size(), 1);
+  std::printf("Intel reference map: %zu cells -> %zu bytes (%.1fx)\n", map.data.size(), packed.size(),
+              static_cast<double>(map.data.size()) / packed.size());
+  EXPECT_LT(packed.size() * 5, map.data.size());
+  std::vector<int8_t> cells;
+  ASSERT_EQ(decompressCells(packed.data(), packed.size(), map.data.size(), cells), "");
+  EXPECT_EQ(cells, map.data);
+
+  EXPECT_NE(decompressCells(packed.data(), packed.size(), map.data.size() - 1, cells).find("more than"), std::string::npos);
+  EXPECT_TRUE(cells.empty());
+  EXPECT_NE(decompressCells(packed.data(), packed.size(), map.data.size() + 1, cells).find("holds"), std::string::npos);
+  EXPECT_NE(decompressCells(packed.data(), packed.size() / 2, map.data.size(), cells).find("ends early"), std::string::npos);
+  std::vector<uint8_t> garbage(packed.begin(), packed.end());
+  for (size_t i = 2; i < garbage.size(); i += 7) garbage[i] ^= 0x5a;
+  EXPECT_NE(decompressCells(garbage.data(), garbage.size(), map.data.size(), cells), "");
+  // A bomb: a few hundred bytes that would inflate to 100 MB, claimed as 1000 cells.
+  const std::vector<int8_t> zeros(100'000'000, 0);
+  const std::vector<uint8_t> bomb = compressCells(zeros.data(), zeros.size(), 9);
+  EXPECT_LT(bomb.size(), 200'000u);
+  EXPECT_NE(decompressCells(bomb.data(), bomb.size(), 1000, cells), "");
+  EXPECT_TRUE(cells.empty());
+}
 
 TEST(PublisherClaim, TheFirstPublisherHoldsANameUntilItFallsSilent) {
   PublisherClaim claim;

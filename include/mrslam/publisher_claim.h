@@ -22,6 +22,7 @@ class PublisherClaim {
     last_heard_ = now;
   }
   const std::string& holder() const { return holder_; }
+  double lastHeard() const { return last_heard_; }
 
  private:
   std::string holder_;

@@ -2,11 +2,13 @@
 // map fusion, slam/fusion core), without a list of robots configured in advance.
 //
 // Subscribes: map (this robot's grid, by pointer from the mapping nodelet in the same manager),
-// share_topic (mrslam/LocalMapShare of all robots; our own is ignored). The fusion runs in a
+// share_topic (mrslam/LocalMapShare of all robots) and compressed_share_topic
+// (mrslam/CompressedMapShare, the same with the cells compressed; our own is ignored). The fusion runs in a
 // worker thread, so callbacks never block. Publishes: the tf edge of the frame convention in
 // fusion/peer_registry.h (static, robotP/map -> robotN/map), merged_map (OccupancyGrid in our
 // map frame, latched), merge_status (diagnostic_msgs/DiagnosticArray, one status per peer:
-// accepted, x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time),
+// accepted, x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time, and
+// stale: nothing heard from the peer for stale_after s),
 // diagnostics; service ~export_octomap (std_srvs/Trigger) writes the merged map as an OctoMap
 // .bt to the parameter octomap_path.
 //
@@ -40,9 +42,11 @@
 #include "mrslam/fusion/peer_registry.h"
 #include "mrslam/octomap_export.h"
 #include "mrslam/publisher_claim.h"
+#include "mrslam/ros/compressed_share.h"
 #include "mrslam/ros/shared_map.h"
 #include "master_query.h"
 #include "ros_conversions.h"
+#include "share_codec.h"
 
 namespace mrslam::nodelets {
 
@@ -61,8 +65,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
     std::string topic, fusion_config;
     pnh.param<std::string>("robot_id", robot_id_, "robot1");
     pnh.param<std::string>("map_frame", map_frame_, robot_id_ + "/map");
+    std::string compressed_topic;
     pnh.param<std::string>("share_topic", topic, "/mrslam/map_share");
-    share_topic_ = nh.resolveName(topic);
+    pnh.param<std::string>("compressed_share_topic", compressed_topic, "/mrslam/map_share_z");
+    share_topics_ = {nh.resolveName(topic), nh.resolveName(compressed_topic)};
     pnh.param<std::string>("fusion_config", fusion_config, "");
     pnh.param<std::string>("octomap_path", octomap_path_, "/tmp/" + robot_id_ + "_merged_map.bt");
     pnh.param("max_peer_cells", max_peer_cells_, 64.0e6);
@@ -84,6 +90,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     quarantine_ = fusion::PeerQuarantine(quarantine_params);
     pnh.param("max_peers", max_peers_, max_peers_);
     pnh.param("owner_timeout", owner_timeout_, owner_timeout_);
+    pnh.param("stale_after", stale_after_, stale_after_);
     if (!fusion_config.empty()) {
       try {
         fusion_params_ = fusion::loadFusionParams(fusion_config);
@@ -96,6 +103,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     status_pub_ = nh.advertise<diagnostic_msgs::DiagnosticArray>("merge_status", 1, true);
     own_sub_ = nh.subscribe("map", 1, &MapMergeNodelet::onOwnMap, this);
     share_sub_ = nh.subscribe(topic, 20, &MapMergeNodelet::onShare, this);
+    compressed_share_sub_ = nh.subscribe(compressed_topic, 20, &MapMergeNodelet::onCompressedShare, this);
     export_srv_ = pnh.advertiseService("export_octomap", &MapMergeNodelet::onExport, this);
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(nh.getNamespace());
@@ -115,20 +123,43 @@ class MapMergeNodelet : public nodelet::Nodelet {
   void onShare(const ros::MessageEvent<SharedMap const>& event) {
     const SharedMap::ConstPtr share = event.getConstMessage();
     try {
-      checkShare(share, event.getPublisherName());
+      if (!admitShare(share->robot_id, event.getPublisherName())) return;
+      const std::string problem =
+          share->map ? gridMsgProblem(*share->map, static_cast<int64_t>(max_peer_cells_)) : std::string("no map");
+      queueShare(share, event.getPublisherName(), problem);
     } catch (const std::exception& e) {
       recordFault("share of '" + printable(share->robot_id) + "'", e.what());
     }
   }
 
-  // The callback's checks: cheap, no copy of the grid (the worker converts it later).
-  void checkShare(const SharedMap::ConstPtr& share, const std::string& publisher) {
-    const std::string& id = share->robot_id;
-    if (id == robot_id_) return;
+  // A compressed share becomes the LocalMapShare it encodes, once its sender is admitted; the
+  // cells are inflated only when the grid's header is usable, and never beyond its size.
+  void onCompressedShare(const ros::MessageEvent<ReceivedCompressedShare const>& event) {
+    const CompressedMapShare* msg = &event.getConstMessage()->msg;
+    try {
+      if (!admitShare(msg->robot_id, event.getPublisherName())) return;
+      auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
+      const std::string problem = inflateGrid(*msg, static_cast<int64_t>(max_peer_cells_), *grid);
+      auto share = boost::make_shared<SharedMap>();
+      share->header = msg->header;
+      share->robot_id = msg->robot_id;
+      share->map = grid;
+      share->pose = msg->pose;
+      share->version = msg->version;
+      queueShare(share, event.getPublisherName(), problem);
+    } catch (const std::exception& e) {
+      recordFault("share of '" + printable(msg->robot_id) + "'", e.what());
+    }
+  }
+
+  // The callback's checks on who sent a share (cheap, before anything is decoded): a valid id,
+  // not ours, not an impostor's, not quarantined, within max_peers. Refusals are counted here.
+  bool admitShare(const std::string& id, const std::string& publisher) {
+    if (id == robot_id_) return false;
     if (!fusion::isValidRobotId(id)) {
       refuseMap(id, "robot_id is not a valid tf prefix ([a-zA-Z][a-zA-Z0-9_]*, at most 64 characters)",
                 /*count_against_peer=*/false);
-      return;
+      return false;
     }
     if (heldByAnother(id, publisher)) {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -136,33 +167,34 @@ class MapMergeNodelet : public nodelet::Nodelet {
       last_problem_ = "map of '" + id + "' from " + printable(publisher) + " refused: the id belongs to " +
                       printable(owners_[id].holder());
       NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
-      return;
+      return false;
     }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (quarantine_.isQuarantined(id, ros::WallTime::now().toSec())) {
-        ++quarantined_shares_;
-        return;
-      }
-      if (!registry_->peers().count(id) && !pending_.count(id) &&
-          registry_->peers().size() + pending_.size() >= static_cast<size_t>(std::max(0, max_peers_))) {
-        ++rejected_maps_;
-        last_problem_ = "map of '" + id + "' refused: already " + std::to_string(max_peers_) + " peers (max_peers)";
-        NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
-        return;
-      }
-    }
-    const std::string problem =
-        share->map ? gridMsgProblem(*share->map, static_cast<int64_t>(max_peer_cells_)) : std::string("no map");
-    if (!problem.empty()) {
-      refuseMap(id, problem);
-      return;
-    }
-    // Only the newest map of each peer is kept; the worker converts it when it gets to it, so
-    // the callback never copies a grid and maps superseded in the meantime are never copied.
     std::lock_guard<std::mutex> lock(mutex_);
-    owners_[id].take(publisher, ros::WallTime::now().toSec());
-    pending_[id] = share;
+    if (quarantine_.isQuarantined(id, ros::WallTime::now().toSec())) {
+      ++quarantined_shares_;
+      return false;
+    }
+    if (!registry_->peers().count(id) && !pending_.count(id) &&
+        registry_->peers().size() + pending_.size() >= static_cast<size_t>(std::max(0, max_peers_))) {
+      ++rejected_maps_;
+      last_problem_ = "map of '" + id + "' refused: already " + std::to_string(max_peers_) + " peers (max_peers)";
+      NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return false;
+    }
+    return true;
+  }
+
+  // An admitted share whose grid has `problem` is refused (and counted against the peer);
+  // otherwise it is the newest map of its peer. The worker converts it when it gets to it, so
+  // the callback never copies a grid and maps superseded in the meantime are never copied.
+  void queueShare(const SharedMap::ConstPtr& share, const std::string& publisher, const std::string& problem) {
+    if (!problem.empty()) {
+      refuseMap(share->robot_id, problem);
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    owners_[share->robot_id].take(publisher, ros::WallTime::now().toSec());
+    pending_[share->robot_id] = share;
     wake_.notify_one();
   }
 
@@ -190,7 +222,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(master_mutex_);  // not mutex_: the callbacks never wait for the master
     const double now = ros::WallTime::now().toSec();
     if (now - master_asked_ >= 2.0) {
-      master_publishers_ = publishersOf(share_topic_);
+      master_publishers_ = publishersOf(share_topics_);
       master_asked_ = now;
     }
     return !master_publishers_ || master_publishers_->count(node);
@@ -405,6 +437,11 @@ class MapMergeNodelet : public nodelet::Nodelet {
       s.add("attempts", peer.attempts);
       s.add("estimate_current", registry_->estimateIsCurrent(peer, own_summary_));
       s.add("version", peer.version);
+      // A robot re-sends an unchanged map every share_keyframe_period: silence beyond
+      // stale_after means its link (or the robot) is down. Its last estimate stays in use.
+      const double silent = ros::WallTime::now().toSec() - owners_[id].lastHeard();
+      s.add("heard_s_ago", silent);
+      s.add("stale", silent > stale_after_);
       array->status.push_back(s);
     }
     status_pub_.publish(diagnostic_msgs::DiagnosticArray::ConstPtr(array));
@@ -471,7 +508,8 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::condition_variable wake_;
   std::atomic<bool> stop_{false};
   std::thread worker_;
-  std::string robot_id_, map_frame_, octomap_path_, last_problem_, share_topic_;
+  std::string robot_id_, map_frame_, octomap_path_, last_problem_;
+  std::vector<std::string> share_topics_;  // resolved: plain and compressed
   double max_peer_cells_ = 64e6, merged_map_period_ = 2.0;
   fusion::FusionParams fusion_params_;
   std::unique_ptr<fusion::PeerRegistry> registry_;
@@ -481,7 +519,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::mutex master_mutex_;  // guards the master's last answer (onShare threads)
   std::optional<std::set<std::string>> master_publishers_;
   double master_asked_ = -1e18;
-  double owner_timeout_ = 30.0;
+  double owner_timeout_ = 30.0, stale_after_ = 90.0;
   size_t impostor_shares_ = 0;
   nav_msgs::OccupancyGrid::ConstPtr own_msg_;
   std::shared_ptr<const OccupancyGrid> own_grid_;
@@ -494,7 +532,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   ros::WallTime last_merged_, last_status_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   ros::Publisher merged_pub_, status_pub_;
-  ros::Subscriber own_sub_, share_sub_;
+  ros::Subscriber own_sub_, share_sub_, compressed_share_sub_;
   ros::ServiceServer export_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;

@@ -1,8 +1,15 @@
-// mrslam/MapShareNodelet: shares this robot's map with its peers as LocalMapShare on a shared
-// topic (default /mrslam/map_share), at most share_rate Hz and only when the map changed.
-// The grid is the very object the mapping nodelet published (received by pointer in the same
-// manager) and goes out inside mrslam::SharedMap without a copy.
+// mrslam/MapShareNodelet: shares this robot's map with its peers, at most share_rate Hz and
+// only when the map changed, in one of two encodings (share_encoding):
+//   - "zlib" (default): CompressedMapShare on compressed_share_topic (/mrslam/map_share_z), the
+//     grid's cells compressed losslessly (cell_codec.h): what crosses the link between robots;
+//   - "none": LocalMapShare on share_topic (/mrslam/map_share) with the grid as is: the very
+//     object the mapping nodelet published (received by pointer in the same manager), inside
+//     mrslam::SharedMap without a copy.
+// Every MapMergeNodelet takes both. A map unchanged for share_keyframe_period (wall clock) is
+// sent again with the same version: peers that missed it (a lossy link, a late joiner) get it,
+// and peers can tell a robot whose map did not change from one whose link is down.
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <mrslam/CompressedMapShare.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -10,6 +17,7 @@
 
 #include <mutex>
 
+#include "mrslam/cell_codec.h"
 #include "mrslam/ros/shared_map.h"
 
 namespace mrslam::nodelets {
@@ -19,15 +27,30 @@ class MapShareNodelet : public nodelet::Nodelet {
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
-    std::string topic;
+    std::string topic, compressed_topic, encoding;
     double rate = 0.5;
     pnh.param<std::string>("robot_id", robot_id_, "robot1");
     pnh.param<std::string>("share_topic", topic, "/mrslam/map_share");
+    pnh.param<std::string>("compressed_share_topic", compressed_topic, "/mrslam/map_share_z");
+    pnh.param<std::string>("share_encoding", encoding, "zlib");
+    pnh.param("share_compression_level", compression_level_, 1);
     pnh.param("share_rate", rate, rate);
-    share_pub_ = nh.advertise<SharedMap>(topic, 10);
+    pnh.param("share_keyframe_period", keyframe_period_, 30.0);
+    if (encoding != "zlib" && encoding != "none") {
+      NODELET_ERROR("share_encoding '%s' is neither \"zlib\" nor \"none\": using \"zlib\"", encoding.c_str());
+      encoding = "zlib";
+    }
+    compress_ = encoding == "zlib";
+    compression_level_ = std::clamp(compression_level_, 1, 9);
+    if (compress_)
+      share_pub_ = nh.advertise<CompressedMapShare>(compressed_topic, 10);
+    else
+      share_pub_ = nh.advertise<SharedMap>(topic, 10);
     map_sub_ = nh.subscribe("map", 1, &MapShareNodelet::onMap, this);
     pose_sub_ = nh.subscribe("pose", 1, &MapShareNodelet::onPose, this);
     timer_ = nh.createTimer(ros::Duration(1.0 / std::max(0.01, rate)), &MapShareNodelet::onTimer, this);
+    if (keyframe_period_ > 0)
+      keyframe_timer_ = nh.createWallTimer(ros::WallDuration(keyframe_period_ / 4), &MapShareNodelet::onKeyframeTimer, this);
   }
 
   void onMap(const nav_msgs::OccupancyGrid::ConstPtr& map) {
@@ -51,17 +74,59 @@ class MapShareNodelet : public nodelet::Nodelet {
       share->pose = pose_;
       share->version = ++version_;
     }
-    share_pub_.publish(SharedMap::ConstPtr(share));
+    send(share);
   }
 
-  std::mutex mutex_;  // guards latest_map_, shared_map_, pose_ and version_ (callbacks and timer)
+  void onKeyframeTimer(const ros::WallTimerEvent&) {
+    std::lock_guard<std::mutex> send_lock(send_mutex_);
+    if (!last_sent_ || (ros::WallTime::now() - last_sent_time_).toSec() < keyframe_period_) return;
+    sendLocked(last_sent_);
+  }
+
+  void send(const SharedMap::ConstPtr& share) {
+    std::lock_guard<std::mutex> send_lock(send_mutex_);
+    sendLocked(share);
+  }
+
+  // send_mutex_ held: shares leave in version order (a keyframe never overtakes a newer map,
+  // which a peer would take for a restart).
+  void sendLocked(const SharedMap::ConstPtr& share) {
+    if (compress_)
+      share_pub_.publish(compressed(*share));
+    else
+      share_pub_.publish(share);
+    last_sent_ = share;
+    last_sent_time_ = ros::WallTime::now();
+  }
+
+  CompressedMapShare::ConstPtr compressed(const SharedMap& share) const {
+    auto out = boost::make_shared<CompressedMapShare>();
+    out->header = share.header;
+    out->robot_id = share.robot_id;
+    out->map_header = share.map->header;
+    out->info = share.map->info;
+    out->encoding = "zlib";
+    out->cells = compressCells(share.map->data.data(), share.map->data.size(), compression_level_);
+    out->pose = share.pose;
+    out->version = share.version;
+    return out;
+  }
+
+  std::mutex mutex_;  // guards latest_map_, shared_map_, pose_ and version_ (callbacks and the share timer)
+  std::mutex send_mutex_;  // orders sending; guards last_sent_ and last_sent_time_ (both timers)
   std::string robot_id_;
+  bool compress_ = true;
+  int compression_level_ = 1;
   nav_msgs::OccupancyGrid::ConstPtr latest_map_, shared_map_;
   geometry_msgs::PoseWithCovariance pose_;
   uint32_t version_ = 0;
   ros::Publisher share_pub_;
   ros::Subscriber map_sub_, pose_sub_;
   ros::Timer timer_;
+  ros::WallTimer keyframe_timer_;
+  double keyframe_period_ = 30.0;  // s, wall clock; 0: never re-sent
+  SharedMap::ConstPtr last_sent_;
+  ros::WallTime last_sent_time_;
 };
 
 }  // namespace mrslam::nodelets

@@ -6,28 +6,29 @@
 #include <ros/names.h>
 #include <xmlrpcpp/XmlRpcException.h>
 
+#include <algorithm>
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 
 namespace mrslam::nodelets {
 
-// The nodes registered as publishers of `topic` (resolved), or nothing when the master cannot
-// be asked.
-inline std::optional<std::set<std::string>> publishersOf(const std::string& topic) {
+// The nodes registered as publishers of any of `topics` (resolved), or nothing when the master
+// cannot be asked.
+inline std::optional<std::set<std::string>> publishersOf(const std::vector<std::string>& topics) {
   XmlRpc::XmlRpcValue args, result, payload;
   args[0] = ros::this_node::getName();
   if (!ros::master::execute("getSystemState", args, result, payload, false)) return std::nullopt;
   try {
-    const std::string resolved = ros::names::resolve(topic);
+    std::set<std::string> nodes;
     XmlRpc::XmlRpcValue& publishers = payload[0];
     for (int i = 0; i < publishers.size(); ++i) {
-      if (static_cast<std::string>(publishers[i][0]) != resolved) continue;
-      std::set<std::string> nodes;
+      const std::string topic = publishers[i][0];
+      if (std::find(topics.begin(), topics.end(), topic) == topics.end()) continue;
       for (int j = 0; j < publishers[i][1].size(); ++j) nodes.insert(static_cast<std::string>(publishers[i][1][j]));
-      return nodes;
     }
-    return std::set<std::string>{};
+    return nodes;
   } catch (const XmlRpc::XmlRpcException&) {
     return std::nullopt;
   }

@@ -114,17 +114,24 @@ inline std::string originMsgProblem(const geometry_msgs::Pose& o) {
   return "";
 }
 
-// Why a grid message cannot be used (empty when it can): data size, resolution, size limit.
-inline std::string gridMsgProblem(const nav_msgs::OccupancyGrid& msg, int64_t max_cells) {
-  if (!std::isfinite(msg.info.resolution) || !(msg.info.resolution > 0)) return "resolution is not positive";
-  if (msg.info.width == 0 || msg.info.height == 0) return "empty grid";
+// Why a grid's geometry cannot be used (empty when it can): resolution, size limit, origin.
+inline std::string gridInfoProblem(const nav_msgs::MapMetaData& info, int64_t max_cells) {
+  if (!std::isfinite(info.resolution) || !(info.resolution > 0)) return "resolution is not positive";
+  if (info.width == 0 || info.height == 0) return "empty grid";
   // Compared by division: width x height of two 32-bit fields can overflow a 64-bit product.
-  if (msg.info.width > max_cells || msg.info.height > max_cells / msg.info.width)
-    return "absurd size " + std::to_string(msg.info.width) + " x " + std::to_string(msg.info.height);
+  if (info.width > max_cells || info.height > max_cells / info.width)
+    return "absurd size " + std::to_string(info.width) + " x " + std::to_string(info.height);
+  return originMsgProblem(info.origin);
+}
+
+// Why a grid message cannot be used (empty when it can): its geometry, its data size.
+inline std::string gridMsgProblem(const nav_msgs::OccupancyGrid& msg, int64_t max_cells) {
+  const std::string problem = gridInfoProblem(msg.info, max_cells);
+  if (!problem.empty()) return problem;
   const int64_t cells = static_cast<int64_t>(msg.info.width) * msg.info.height;
   if (static_cast<int64_t>(msg.data.size()) != cells)
     return "data size " + std::to_string(msg.data.size()) + " != width x height " + std::to_string(cells);
-  return originMsgProblem(msg.info.origin);
+  return "";
 }
 
 inline OccupancyGrid gridFromMsg(const nav_msgs::OccupancyGrid& msg) {
