@@ -156,6 +156,20 @@ TEST(PeerMapCheck, RefusesExactlyWhatTheFusionWouldRefuse) {
   EXPECT_EQ(peerMapProblem(coarse, 0.0, params), "") << "resolution unknown yet: only the map itself is checked";
 }
 
+// Found by the fuzzer: two maps of a resolution of 1e-270 m passed every check, and a metre
+// became 1e270 cells, an int overflow in the similarity search. Such resolutions are refused.
+TEST(PeerMapCheck, AbsurdResolutionsAreRefusedBeforeTheSearch) {
+  const FusionParams params;
+  OccupancyGrid tiny = *realMap(), huge = *realMap();
+  tiny.resolution = 1e-270;
+  huge.resolution = 1e6;
+  for (const OccupancyGrid* g : {&tiny, &huge}) {
+    EXPECT_NE(validateGrid(*g).find("outside"), std::string::npos);
+    EXPECT_NE(peerMapProblem(*g, 0.0, params), "");
+    EXPECT_THROW(alignMaps(*g, *g, params), std::invalid_argument);
+  }
+}
+
 TEST(PeerQuarantine, APeerRefusedSeveralTimesInARowIsNotHeardForAWhile) {
   PeerQuarantine q({/*bad_maps_in_a_row=*/3, /*period_s=*/60.0});
   EXPECT_FALSE(q.reportBad("robot9", 0.0));

@@ -54,6 +54,10 @@ struct OccupancyGrid {
 // Origins further than this from their frame are refused (m): no map is that large, and cell
 // indices computed from such offsets would overflow.
 constexpr double kMaxOriginMetres = 1e6;
+// Resolutions outside this range (m per cell) are refused: no occupancy grid is finer than a
+// tenth of a millimetre or coarser than a kilometre, and distances in cells computed from such
+// resolutions would overflow cell indices.
+constexpr double kMinResolution = 1e-4, kMaxResolution = 1e3;
 
 // Checks the invariants every consumer relies on; returns an empty string when the grid
 // is well formed, otherwise a one-line description of what is wrong. `max_cells` guards

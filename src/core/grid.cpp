@@ -8,6 +8,8 @@ std::string validateGrid(const OccupancyGrid& grid, int64_t max_cells) {
   std::ostringstream why;
   if (!(grid.resolution > 0.0) || !std::isfinite(grid.resolution)) {
     why << "resolution must be a positive finite number (got " << grid.resolution << ")";
+  } else if (grid.resolution < kMinResolution || grid.resolution > kMaxResolution) {
+    why << "resolution " << grid.resolution << " m is outside " << kMinResolution << ".." << kMaxResolution << " m";
   } else if (grid.width <= 0 || grid.height <= 0) {
     why << "grid is empty (" << grid.width << " x " << grid.height << " cells)";
   } else if (static_cast<int64_t>(grid.width) * grid.height > max_cells) {

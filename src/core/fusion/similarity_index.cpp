@@ -47,8 +47,10 @@ void SimilarityIndex::accumulate(const std::vector<cv::Point2f>& points,
   // Per offset, counts of the classes of A met by the points: [unknown, free, occ, near].
   std::vector<int64_t> hits(static_cast<size_t>(side) * side * 4, 0);
   for (const auto& p : points) {
-    const int x0 = static_cast<int>(std::floor(c * p.x - s * p.y + transform.t.x)) - radius;
-    const int y0 = static_cast<int>(std::floor(s * p.x + c * p.y + transform.t.y)) - radius;
+    const double fx = std::floor(c * p.x - s * p.y + transform.t.x), fy = std::floor(s * p.x + c * p.y + transform.t.y);
+    if (!(std::abs(fx) < 1e9 && std::abs(fy) < 1e9)) continue;  // far off A (or NaN): no int for it
+    const int x0 = static_cast<int>(fx) - radius;
+    const int y0 = static_cast<int>(fy) - radius;
     if (x0 + side <= 0 || y0 + side <= 0 || x0 >= cols || y0 >= rows) continue;
     if (x0 >= 0 && y0 >= 0 && x0 + side <= cols && y0 + side <= rows) {
       // The whole window inside A (most points): no per-cell bounds checks.
