@@ -109,7 +109,7 @@ class SlamNodelet : public nodelet::Nodelet {
   }
 
   void onOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> lock(input_mutex_);
     if (!finite(poseFromMsg(msg->pose.pose))) {
       ++bad_odometry_;
       NODELET_WARN_THROTTLE(5.0, "odometry with a NaN/inf pose");
@@ -118,7 +118,7 @@ class SlamNodelet : public nodelet::Nodelet {
   }
 
   void onImu(const sensor_msgs::Imu::ConstPtr& msg) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> lock(input_mutex_);
     const double t = msg->header.stamp.toSec();
     const double rate = msg->angular_velocity.z;
     if (!std::isfinite(rate)) {
@@ -133,7 +133,8 @@ class SlamNodelet : public nodelet::Nodelet {
   }
 
   // The gyro's yaw change over [t0, t1): each sample's rate holds until the next sample.
-  void integrateGyro(double t0, double t1) {
+  void integrateGyro(double t0, double t1) {  // mutex_ held
+    std::lock_guard<std::mutex> lock(input_mutex_);
     double yaw = 0, covered = 0;
     for (size_t i = 0; i < gyro_.size(); ++i) {
       const double start = std::max(t0, gyro_[i].first);
@@ -179,7 +180,10 @@ class SlamNodelet : public nodelet::Nodelet {
     robot_.reset();
     last_odom_.reset();
     last_scan_time_.reset();
-    gyro_.clear();
+    {
+      std::lock_guard<std::mutex> input_lock(input_mutex_);
+      gyro_.clear();
+    }
     stamps_.clear();
     tf_buffer_->clear();
     going_back_ = 0;
@@ -336,9 +340,12 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("loop closures accepted", s.loop_accepted);
     status.add("loop closures dropped", s.loop_dropped);
     status.add("optimisation failures", s.optimization_failures);
-    status.add("imu samples rejected", imu_rejected_);
-    status.add("odometry messages", odometry_messages_);
-    status.add("odometry messages with NaN", bad_odometry_);
+    {
+      std::lock_guard<std::mutex> input_lock(input_mutex_);
+      status.add("imu samples rejected", imu_rejected_);
+      status.add("odometry messages", odometry_messages_);
+      status.add("odometry messages with NaN", bad_odometry_);
+    }
     status.add("resets (time jumps)", resets_);
     status.add("scans refused from a second publisher", impostor_scans_);
     const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
@@ -354,11 +361,15 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("recent map addresses", addresses);
   }
 
-  // Lock rules. mutex_ guards the front end and every member the callbacks (scan, odometry,
-  // imu, the map and diagnostics timers) share. The map timer takes the map's pieces and the
-  // trajectory under it and composes and publishes them after releasing it, so the scan
-  // callback never waits for a map to be composed.
+  // Lock rules. mutex_ guards the front end and what the scan callback shares with the map and
+  // diagnostics timers; the scan callback holds it while the front end runs (scans are
+  // processed one at a time anyway). The map timer takes the map's pieces and the trajectory
+  // under it and composes and publishes them after releasing it, so the scan callback never
+  // waits for a map to be composed. input_mutex_ guards the gyro buffer and the odometry/IMU
+  // counters: the odometry and IMU callbacks take only it, so they never wait for a scan's
+  // matching. Order: mutex_ before input_mutex_, never the other way.
   std::mutex mutex_;
+  std::mutex input_mutex_;
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
   double transform_tolerance_ = 0.1, max_time_jump_ = 1.0, future_tolerance_ = 10.0, last_back_time_ = 0;
@@ -369,9 +380,10 @@ class SlamNodelet : public nodelet::Nodelet {
   std::optional<Pose2D> last_odom_;
   std::optional<double> last_scan_time_;
   std::vector<ros::Time> stamps_;  // of every scan the front end used, in order
-  std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered
+  std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered; input_mutex_
   uint64_t published_version_ = ~0ull;
-  size_t odometry_messages_ = 0, bad_odometry_ = 0, rejected_ = 0, imu_rejected_ = 0, resets_ = 0, maps_published_ = 0;
+  size_t odometry_messages_ = 0, bad_odometry_ = 0, imu_rejected_ = 0;  // input_mutex_
+  size_t rejected_ = 0, resets_ = 0, maps_published_ = 0;
   size_t impostor_scans_ = 0;
   PublisherClaim scan_owner_;  // the node whose scans are used
   double input_owner_timeout_ = 5.0;
