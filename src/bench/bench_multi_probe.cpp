@@ -3,10 +3,13 @@
 // real-time factor achieved), the poses each robot published, how many robot pairs are merged,
 // and for each merged pair the simulated time from the peer's first map to the accepted transform
 // and whether the accepted transform is correct (within 1 degree and 2 cells of the truth from
-// the bag's reference poses, mrslam/bench/peer_frame_truth.h).
+// the bag's reference poses, mrslam/bench/peer_frame_truth.h), and the bytes each robot put on
+// the link between robots (the compressed share topic; new maps, keyframes apart) per second of
+// the bag's clock.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <mrslam/CompressedMapShare.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <tf2/utils.h>
@@ -81,6 +84,14 @@ int main(int argc, char** argv) {
           }
         }));
   }
+  std::map<std::string, double> share_bytes;
+  std::map<std::string, uint32_t> share_version;
+  subs.push_back(nh.subscribe<mrslam::CompressedMapShare>("/mrslam/map_share_z", 100, [&](const mrslam::CompressedMapShare::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (m->version <= share_version[m->robot_id]) return;  // a keyframe: the same map again
+    share_version[m->robot_id] = m->version;
+    share_bytes[m->robot_id] += ros::serialization::serializationLength(*m);
+  }));
   ros::AsyncSpinner spinner(2);
   spinner.start();
   const ros::WallTime start = ros::WallTime::now();
@@ -125,6 +136,12 @@ int main(int argc, char** argv) {
     }
   }
   std::sort(delays.begin(), delays.end());
+  if (last_clock > first_clock && !share_bytes.empty()) {
+    double sum = 0, most = 0;
+    for (const auto& [id, bytes] : share_bytes) sum += bytes, most = std::max(most, bytes);
+    const double sim = last_clock - first_clock;
+    std::printf("share_kb_per_s mean=%.1f max=%.1f\n", sum / share_bytes.size() / sim / 1000, most / sim / 1000);
+  }
   std::printf("pairs_seen=%d pairs_accepted=%d of_possible=%d\n", total, accepted, robots * (robots - 1));
   std::printf("pairs_correct=%d pairs_unchecked=%d\n", correct, unchecked);
   if (!delays.empty())
