@@ -12,6 +12,8 @@
 #include <cstring>
 #include <string>
 
+#include "mrslam/ros/wire_traits.h"
+
 namespace mrslam {
 
 struct ReceivedCompressedShare {
@@ -27,20 +29,11 @@ namespace ros {
 namespace message_traits {
 
 template <>
-struct MD5Sum<mrslam::ReceivedCompressedShare> {
-  static const char* value() { return MD5Sum<mrslam::CompressedMapShare>::value(); }
-  static const char* value(const mrslam::ReceivedCompressedShare&) { return value(); }
-};
+struct MD5Sum<mrslam::ReceivedCompressedShare> : SameMD5<mrslam::ReceivedCompressedShare, mrslam::CompressedMapShare> {};
 template <>
-struct DataType<mrslam::ReceivedCompressedShare> {
-  static const char* value() { return DataType<mrslam::CompressedMapShare>::value(); }
-  static const char* value(const mrslam::ReceivedCompressedShare&) { return value(); }
-};
+struct DataType<mrslam::ReceivedCompressedShare> : SameDataType<mrslam::ReceivedCompressedShare, mrslam::CompressedMapShare> {};
 template <>
-struct Definition<mrslam::ReceivedCompressedShare> {
-  static const char* value() { return Definition<mrslam::CompressedMapShare>::value(); }
-  static const char* value(const mrslam::ReceivedCompressedShare&) { return value(); }
-};
+struct Definition<mrslam::ReceivedCompressedShare> : SameDefinition<mrslam::ReceivedCompressedShare, mrslam::CompressedMapShare> {};
 
 }  // namespace message_traits
 

@@ -18,6 +18,8 @@
 #include <cstring>
 #include <string>
 
+#include "mrslam/ros/wire_traits.h"
+
 namespace mrslam {
 
 struct SharedMap {
@@ -37,20 +39,11 @@ namespace ros {
 namespace message_traits {
 
 template <>
-struct MD5Sum<mrslam::SharedMap> {
-  static const char* value() { return MD5Sum<mrslam::LocalMapShare>::value(); }
-  static const char* value(const mrslam::SharedMap&) { return value(); }
-};
+struct MD5Sum<mrslam::SharedMap> : SameMD5<mrslam::SharedMap, mrslam::LocalMapShare> {};
 template <>
-struct DataType<mrslam::SharedMap> {
-  static const char* value() { return DataType<mrslam::LocalMapShare>::value(); }
-  static const char* value(const mrslam::SharedMap&) { return value(); }
-};
+struct DataType<mrslam::SharedMap> : SameDataType<mrslam::SharedMap, mrslam::LocalMapShare> {};
 template <>
-struct Definition<mrslam::SharedMap> {
-  static const char* value() { return Definition<mrslam::LocalMapShare>::value(); }
-  static const char* value(const mrslam::SharedMap&) { return value(); }
-};
+struct Definition<mrslam::SharedMap> : SameDefinition<mrslam::SharedMap, mrslam::LocalMapShare> {};
 
 }  // namespace message_traits
 
