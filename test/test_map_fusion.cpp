@@ -6,9 +6,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <opencv2/imgcodecs.hpp>
 
 #include "mrslam/bench/pair_maker.h"
+#include "mrslam/fusion/fusion_params_io.h"
 #include "mrslam/fusion/map_fusion.h"
 #include "mrslam/map_io.h"
 #include "test_data.h"
@@ -261,4 +263,45 @@ TEST(MergeCli, BadInputGivesOneLineNamingTheFileAndExitTwo) {
   EXPECT_EQ(run("--config " + (dir / "bad.yaml").string() + " " + good + " " + good).status, 2);
   EXPECT_NE(run("--config " + (dir / "bad.yaml").string() + " " + good + " " + good).output.find("nonsense_key"),
             std::string::npos);
+}
+
+// config/fusion.yaml is the single source of the fusion's defaults: it lists every key, and
+// its values are exactly FusionParams{} (which the tests and the tools use without a file).
+TEST(FusionParamsFile, ListsEveryKeyWithTheDefaultsTheCodeUses) {
+  const std::string path = std::string(MRSLAM_SOURCE_DIR) + "/config/fusion.yaml";
+  const auto defaults = fusionParamValues(FusionParams{});
+  const auto from_file = fusionParamValues(loadFusionParams(path));
+  std::ifstream in(path);
+  std::set<std::string> listed;
+  for (std::string line; std::getline(in, line);) {
+    const size_t colon = line.find(':');
+    if (!line.empty() && std::isalpha(static_cast<unsigned char>(line[0])) && colon != std::string::npos)
+      listed.insert(line.substr(0, colon));
+  }
+  for (const auto& [key, value] : defaults) {
+    EXPECT_TRUE(listed.count(key)) << key << " is not in " << path;
+    EXPECT_EQ(from_file.at(key), value) << key;
+  }
+  EXPECT_EQ(listed.size(), defaults.size());
+}
+
+TEST(FusionParamsFile, RefusesUnknownKeysBadTypesAndOutOfRangeValuesNamingTheKey) {
+  const fs::path dir = tempDir();
+  const std::string path = (dir / "fusion.yaml").string();
+  auto refusal = [&](const std::string& text) {
+    std::ofstream(path) << text;
+    try {
+      loadFusionParams(path);
+    } catch (const ParamsError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(refusal("min_acceptence: 0.9\n").find("unknown parameter 'min_acceptence'"), std::string::npos);
+  EXPECT_NE(refusal("min_acceptance: high\n").find("'min_acceptance' has an invalid value"), std::string::npos);
+  EXPECT_NE(refusal("min_acceptance: 1.5\n").find("'min_acceptance' 1.5 is outside [0, 1]"), std::string::npos);
+  EXPECT_NE(refusal("coarse_max_cells: 4\n").find("'coarse_max_cells'"), std::string::npos);
+  EXPECT_NE(refusal("max_entropy_increase: .nan\n").find("'max_entropy_increase'"), std::string::npos);
+  EXPECT_EQ(refusal("min_acceptance: 0.9\n"), "accepted");
+  fs::remove_all(dir);
 }

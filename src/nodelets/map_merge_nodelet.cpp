@@ -95,20 +95,24 @@ class MapMergeNodelet : public nodelet::Nodelet {
       try {
         fusion_params_ = fusion::loadFusionParams(fusion_config);
       } catch (const std::exception& e) {
-        NODELET_ERROR("%s: using the default fusion parameters", e.what());
+        // Merging with parameters nobody chose would be worse than not merging: refuse, say so
+        // in the log and in diagnostics, and leave the rest of the robot running.
+        config_problem_ = std::string("fusion_config refused: ") + e.what();
+        NODELET_ERROR("%s; this robot merges no peer maps until the file is fixed", config_problem_.c_str());
       }
     }
 
     merged_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("merged_map", 1, true);
     status_pub_ = nh.advertise<diagnostic_msgs::DiagnosticArray>("merge_status", 1, true);
-    own_sub_ = nh.subscribe("map", 1, &MapMergeNodelet::onOwnMap, this);
-    share_sub_ = nh.subscribe(topic, 20, &MapMergeNodelet::onShare, this);
-    compressed_share_sub_ = nh.subscribe(compressed_topic, 20, &MapMergeNodelet::onCompressedShare, this);
-    export_srv_ = pnh.advertiseService("export_octomap", &MapMergeNodelet::onExport, this);
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(nh.getNamespace());
     diagnostics_->add("map merge", this, &MapMergeNodelet::diagnose);
     diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+    if (!config_problem_.empty()) return;
+    own_sub_ = nh.subscribe("map", 1, &MapMergeNodelet::onOwnMap, this);
+    share_sub_ = nh.subscribe(topic, 20, &MapMergeNodelet::onShare, this);
+    compressed_share_sub_ = nh.subscribe(compressed_topic, 20, &MapMergeNodelet::onCompressedShare, this);
+    export_srv_ = pnh.advertiseService("export_octomap", &MapMergeNodelet::onExport, this);
     worker_ = std::thread(&MapMergeNodelet::work, this);
   }
 
@@ -480,6 +484,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (!config_problem_.empty()) {
+      status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, config_problem_);
+      return;
+    }
     size_t accepted = 0;
     for (const auto& [id, peer] : registry_->peers()) accepted += peer.accepted.has_value();
     status.summary((rejected_maps_ || faults_) && !last_problem_.empty() ? diagnostic_msgs::DiagnosticStatus::WARN
@@ -509,6 +517,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::atomic<bool> stop_{false};
   std::thread worker_;
   std::string robot_id_, map_frame_, octomap_path_, last_problem_;
+  std::string config_problem_;  // set once in onInit (before any callback) when fusion_config is refused
   std::vector<std::string> share_topics_;  // resolved: plain and compressed
   double max_peer_cells_ = 64e6, merged_map_period_ = 2.0;
   fusion::FusionParams fusion_params_;

@@ -1,8 +1,11 @@
-// Reads FusionParams from a yaml file (config/fusion.yaml documents every key). Keys that
-// are absent keep their defaults; unknown keys and bad values are errors, so a typo in a
-// parameter name is reported instead of silently ignored.
+// Reads FusionParams from a yaml file. config/fusion.yaml lists and documents every key with
+// its default, and a test holds it equal to FusionParams{} key by key (the defaults in the
+// headers only mirror it). Keys that are absent keep their defaults; unknown keys, values of
+// the wrong type and values out of range are errors naming the file and key, so a typo in a
+// parameter is reported instead of silently ignored.
 #pragma once
 
+#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -16,5 +19,8 @@ class ParamsError : public std::runtime_error {
 };
 
 FusionParams loadFusionParams(const std::string& yaml_path);
+
+// Every key of the yaml with its value in `params`, written as loadFusionParams reads it.
+std::map<std::string, std::string> fusionParamValues(const FusionParams& params);
 
 }  // namespace mrslam::fusion

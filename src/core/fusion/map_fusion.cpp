@@ -18,6 +18,10 @@ namespace mrslam::fusion {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+// Down the pyramid, a survivor scoring under this share of the best stops being refined.
+constexpr double kKeepShareOfBest = 0.5;
+// The chamfer polish is kept unless the similarity score drops below this share (see polish()).
+constexpr double kPolishKeepsScore = 0.9;
 
 std::vector<cv::Mat> pyramid(const cv::Mat& level0, int levels) {
   std::vector<cv::Mat> out{level0};
@@ -87,190 +91,258 @@ std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params) 
 
 namespace {
 
-FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
-  const auto start = std::chrono::steady_clock::now();
-  FusionResult result;
-  auto lap = start;
-  auto stage = [&](const char* name) {
+// Times the stages of one search into FusionResult::stage_ms.
+class StageClock {
+ public:
+  explicit StageClock(FusionResult& result) : result_(result) {}
+  void lap(const char* name) {
     const auto now = std::chrono::steady_clock::now();
-    result.stage_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - lap).count());
-    lap = now;
-  };
-  const double ratio = b.resolution / a.resolution;
+    result_.stage_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - last_).count());
+    last_ = now;
+  }
+  double totalMs() const {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  }
 
-  const cv::Mat ternary_a = toTernary(a, params.occupied_threshold, params.free_threshold);
-  cv::Mat ternary_b = toTernary(b, params.occupied_threshold, params.free_threshold);
+ private:
+  FusionResult& result_;
+  const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+  std::chrono::steady_clock::time_point last_ = start_;
+};
+
+// Both maps as ternary images at A's resolution, their pyramids and the levels each step uses.
+struct Images {
+  cv::Mat a, b;                        // full resolution (B resampled to A's cells)
+  std::vector<cv::Mat> pyr_a, pyr_b;   // level l is 2^l times coarser
+  int coarse = 0;                      // where hypotheses are scored
+  int fourier = 0;                     // where the Fourier translation search runs (>= coarse)
+  int spectrum = 0;                    // where the rotation spectra are taken (<= coarse)
+};
+
+Images prepareImages(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
+  Images im;
+  im.a = toTernary(a, params.occupied_threshold, params.free_threshold);
+  im.b = toTernary(b, params.occupied_threshold, params.free_threshold);
+  const double ratio = b.resolution / a.resolution;
   if (std::abs(ratio - 1.0) > 1e-6) {
     // Resample B to A's resolution; B's cell coordinates then count A-sized cells.
-    cv::resize(ternary_b, ternary_b, cv::Size(), ratio, ratio, cv::INTER_NEAREST);
+    cv::resize(im.b, im.b, cv::Size(), ratio, ratio, cv::INTER_NEAREST);
   }
-
-  const int coarse = levelFor(ternary_a, ternary_b, params.coarse_max_cells);
-  const int fourier_level = std::max(coarse, levelFor(ternary_a, ternary_b, params.fourier_max_cells));
+  im.coarse = levelFor(im.a, im.b, params.coarse_max_cells);
+  im.fourier = std::max(im.coarse, levelFor(im.a, im.b, params.fourier_max_cells));
   // Rotation spectra want angular detail: the finest level within spectrum_max_cells.
-  const int spectrum_level = std::min(coarse, levelFor(ternary_a, ternary_b, params.spectrum_max_cells));
-  const std::vector<cv::Mat> pyr_a = pyramid(ternary_a, fourier_level + 1), pyr_b = pyramid(ternary_b, fourier_level + 1);
+  im.spectrum = std::min(im.coarse, levelFor(im.a, im.b, params.spectrum_max_cells));
+  im.pyr_a = pyramid(im.a, im.fourier + 1);
+  im.pyr_b = pyramid(im.b, im.fourier + 1);
+  return im;
+}
 
-  stage("prepare");
+// A pose hypothesis on the coarse level with the window its coarse search covers.
+struct Hypothesis {
+  CellTransform pose;
+  int radius;          // translation window (coarse cells)
+  int rotation_steps;  // rotation steps either way
+};
 
-  // Hypotheses on the coarse level, each with the radius and rotation steps of its search.
-  std::vector<std::tuple<CellTransform, int, int>> hypotheses;
+// Our global search: rotation candidates from the Radon spectra, then for each the best
+// translations by Fourier correlation (a small window search follows on the coarse level).
+void addSpectrumHypotheses(const Images& im, const FusionParams& params, std::vector<Hypothesis>& out,
+                           StageClock& clock) {
   const std::vector<double> alphas =
-      globalRotationCandidates(occupiedPoints(pyr_a[spectrum_level]), occupiedPoints(pyr_b[spectrum_level]),
+      globalRotationCandidates(occupiedPoints(im.pyr_a[im.spectrum]), occupiedPoints(im.pyr_b[im.spectrum]),
                                params.spectrum_step_deg * kDeg, params.rotation_candidates);
-  stage("spectra");
-  const CorrelationSearch correlation(pyr_a[fourier_level], pyr_b[fourier_level], params.disagreement_weight);
-  const double fourier_to_coarse = std::pow(2.0, fourier_level - coarse);
+  clock.lap("spectra");
+  const CorrelationSearch correlation(im.pyr_a[im.fourier], im.pyr_b[im.fourier], params.disagreement_weight);
+  const double fourier_to_coarse = std::pow(2.0, im.fourier - im.coarse);
   for (double alpha : alphas)
     for (const CellTransform& h : correlation.candidates(alpha, params.translation_peaks, 2))
-      hypotheses.emplace_back(h.scaled(1.0 / fourier_to_coarse), params.coarse_search_radius,
-                              params.coarse_rotation_steps);
-  stage("fourier");
-  if (params.use_segments) {
-    const int level = std::min(coarse, levelFor(ternary_a, ternary_b, params.segment_max_cells));
-    std::mt19937 rng(params.seed);
-    const SegmentFeatures fa = extractSegments(pyr_a[level], params.segments, rng);
-    const SegmentFeatures fb = extractSegments(pyr_b[level], params.segments, rng);
-    const double to_coarse = std::pow(2.0, coarse - level);
-    const int radius = std::max(1, static_cast<int>(std::ceil(params.segment_search_radius / to_coarse)));
-    for (const CellTransform& h : segmentHypotheses(fa, fb, params.segments))
-      hypotheses.emplace_back(h.scaled(to_coarse), radius, 1);
-  }
-  stage("segments");
+      out.push_back({h.scaled(1.0 / fourier_to_coarse), params.coarse_search_radius, params.coarse_rotation_steps});
+  clock.lap("fourier");
+}
 
-  result.hypotheses = static_cast<int>(hypotheses.size());
-  const SimilarityIndex coarse_index(pyr_a[coarse], pyr_b[coarse], params.max_free_points,
-                                     params.disagreement_weight);
-  const double coarse_step = params.coarse_rotation_step_deg * kDeg;
+// Paper stages 1-6: matched random segments; each pair's pose gets the paper's window and a
+// rotation step either way (its angle is a line fit).
+void addSegmentHypotheses(const Images& im, const FusionParams& params, std::vector<Hypothesis>& out) {
+  if (!params.use_segments) return;
+  const int level = std::min(im.coarse, levelFor(im.a, im.b, params.segment_max_cells));
+  std::mt19937 rng(params.seed);
+  const SegmentFeatures fa = extractSegments(im.pyr_a[level], params.segments, rng);
+  const SegmentFeatures fb = extractSegments(im.pyr_b[level], params.segments, rng);
+  const double to_coarse = std::pow(2.0, im.coarse - level);
+  const int radius = std::max(1, static_cast<int>(std::ceil(params.segment_search_radius / to_coarse)));
+  for (const CellTransform& h : segmentHypotheses(fa, fb, params.segments)) out.push_back({h.scaled(to_coarse), radius, 1});
+}
+
+// Scores every hypothesis in its window on the coarse level and keeps the best few distinct ones.
+std::vector<CellTransform> bestCoarsePoses(const std::vector<Hypothesis>& hypotheses, const SimilarityIndex& index,
+                                           const FusionParams& params) {
+  const double step = params.coarse_rotation_step_deg * kDeg, w = params.disagreement_weight;
   std::vector<SearchResult> scored;
-  // Fourier hypotheses come from a coarser level and get a small window search; segment
-  // hypotheses the paper's window and a rotation step either way (their angle is a line fit).
-  for (const auto& [h, radius, turns] : hypotheses)
-    scored.push_back(coarse_index.search(h, radius, coarse_step, turns));
-  const double w = params.disagreement_weight;
-  std::sort(scored.begin(), scored.end(), [w](const SearchResult& x, const SearchResult& y) {
-    return x.counts.score(w) > y.counts.score(w);
-  });
-  stage("coarse");
+  for (const Hypothesis& h : hypotheses) scored.push_back(index.search(h.pose, h.radius, step, h.rotation_steps));
+  std::sort(scored.begin(), scored.end(),
+            [w](const SearchResult& x, const SearchResult& y) { return x.counts.score(w) > y.counts.score(w); });
   std::vector<CellTransform> survivors;
   for (const SearchResult& s : scored) {
     if (static_cast<int>(survivors.size()) >= params.refined_hypotheses) break;
     const bool duplicate = std::any_of(survivors.begin(), survivors.end(), [&](const CellTransform& t) {
-      return sameHypothesis(t, s.transform, 2.0, 2 * coarse_step);
+      return sameHypothesis(t, s.transform, 2.0, 2 * step);
     });
     if (!duplicate) survivors.push_back(s.transform);
   }
+  return survivors;
+}
 
-  // Stage 7, once per survivor on the coarse level: Radon rotation tuning, kept only where the
-  // similarity index agrees it is better (the pyramid and the polish refine further).
-  {
-    const RadonTuner radon(occupiedPoints(pyr_a[coarse]), params.radon_window_deg * kDeg,
-                           params.radon_step_deg * kDeg, params.radon_peaks);
-    const std::vector<cv::Point2f> points_b = occupiedPoints(pyr_b[coarse]);
-    cv::Point2d pivot;
-    for (const auto& p : points_b) pivot += cv::Point2d(p);
-    pivot /= static_cast<double>(std::max<size_t>(1, points_b.size()));
-    std::vector<cv::Point2f> rotated(points_b.size());
-    for (CellTransform& h : survivors) {
-      const CellTransform rotation{h.theta, {0, 0}};
-      for (size_t k = 0; k < points_b.size(); ++k) rotated[k] = cv::Point2f(rotation.apply(points_b[k]));
-      const CellTransform tuned = turned(h, radon.tune(rotated), pivot);
-      if (coarse_index.search(tuned, 1, 0, 0).counts.score(w) > coarse_index.search(h, 1, 0, 0).counts.score(w))
-        h = tuned;
-    }
+// Stage 7, once per survivor on the coarse level: Radon rotation tuning, kept only where the
+// similarity index agrees it is better (the pyramid and the polish refine further).
+void tuneRotations(const Images& im, const SimilarityIndex& coarse_index, const FusionParams& params,
+                   std::vector<CellTransform>& survivors) {
+  const double w = params.disagreement_weight;
+  const RadonTuner radon(occupiedPoints(im.pyr_a[im.coarse]), params.radon_window_deg * kDeg,
+                         params.radon_step_deg * kDeg, params.radon_peaks);
+  const std::vector<cv::Point2f> points_b = occupiedPoints(im.pyr_b[im.coarse]);
+  cv::Point2d pivot;
+  for (const auto& p : points_b) pivot += cv::Point2d(p);
+  pivot /= static_cast<double>(std::max<size_t>(1, points_b.size()));
+  std::vector<cv::Point2f> rotated(points_b.size());
+  for (CellTransform& h : survivors) {
+    const CellTransform rotation{h.theta, {0, 0}};
+    for (size_t k = 0; k < points_b.size(); ++k) rotated[k] = cv::Point2f(rotation.apply(points_b[k]));
+    const CellTransform tuned = turned(h, radon.tune(rotated), pivot);
+    if (coarse_index.search(tuned, 1, 0, 0).counts.score(w) > coarse_index.search(h, 1, 0, 0).counts.score(w)) h = tuned;
   }
-  stage("radon");
+}
 
-  // Tune the survivors level by level down to full resolution.
+// Stage 8 down the pyramid: each survivor is searched again on every finer level (translation
+// window refine_radius, rotation step halving per level). Returns the finest level's index
+// (null when the coarse level is already full resolution).
+std::unique_ptr<SimilarityIndex> refineDownThePyramid(const Images& im, const FusionParams& params,
+                                                      std::vector<SearchResult>& finals) {
+  const double w = params.disagreement_weight;
   std::unique_ptr<SimilarityIndex> finest;
-  std::vector<SearchResult> finals(survivors.size());
-  for (size_t i = 0; i < survivors.size(); ++i) finals[i].transform = survivors[i];
-  for (int level = coarse - 1; level >= 0; --level) {
-    finest = std::make_unique<SimilarityIndex>(pyr_a[level], pyr_b[level], params.max_free_points,
-                                               params.disagreement_weight);
-    const double step = coarse_step / std::pow(2.0, coarse - level);
+  for (int level = im.coarse - 1; level >= 0; --level) {
+    finest = std::make_unique<SimilarityIndex>(im.pyr_a[level], im.pyr_b[level], params.max_free_points, w);
+    const double step = params.coarse_rotation_step_deg * kDeg / std::pow(2.0, im.coarse - level);
     for (SearchResult& f : finals) f = finest->search(f.transform.scaled(0.5), params.refine_radius, step, 1);
     // A survivor scoring under half of the best can neither win nor make the pose ambiguous
     // (max_ambiguity is far above that): stop spending finer levels on it.
     double top = -1e300;
     for (const SearchResult& f : finals) top = std::max(top, f.counts.score(w));
     finals.erase(std::remove_if(finals.begin(), finals.end(),
-                                [&](const SearchResult& f) { return top > 0 && f.counts.score(w) < 0.5 * top; }),
+                                [&](const SearchResult& f) { return top > 0 && f.counts.score(w) < kKeepShareOfBest * top; }),
                  finals.end());
   }
-  stage("pyramid");
-  const SimilarityIndex& full = finest ? *finest : coarse_index;
-  if (!finest) {
-    for (SearchResult& f : finals) f.counts = full.evaluate(f.transform);
-  }
+  return finest;
+}
 
-  // Polish every survivor before choosing: the pyramid ends with quarter-degree rotation
-  // steps (a cell or more at 30 m), enough for a symmetric impostor (ACES turned by 180
-  // degrees) to outscore the slightly misaligned truth. The polish is kept unless the
-  // similarity index drops by a tenth (a diverged polish): it reads a subsample of B's free
-  // cells, whose aliasing with one-cell walls moves a score by 1-2 % from one pose to the next,
-  // so a tighter guard (we had 2 %) threw away polishes that moved a pose 2 cells closer to
-  // the truth (scripts/bench_merge, an ACES window pair of seed 99).
-  if (params.chamfer_polish && finest) {
-    const ChamferPolish chamfer(ternary_a, ternary_b, params.chamfer_truncation);
-    for (SearchResult& f : finals) {
-      const CellTransform polished = chamfer.polish(f.transform);
-      const SimilarityCounts counts = full.evaluate(polished);
-      if (counts.score(w) >= 0.9 * f.counts.score(w)) f = {polished, counts};
+// Polish every survivor before choosing: the pyramid ends with quarter-degree rotation
+// steps (a cell or more at 30 m), enough for a symmetric impostor (ACES turned by 180
+// degrees) to outscore the slightly misaligned truth. The polish is kept unless the
+// similarity index drops by a tenth (a diverged polish): it reads a subsample of B's free
+// cells, whose aliasing with one-cell walls moves a score by 1-2 % from one pose to the next,
+// so a tighter guard (we had 2 %) threw away polishes that moved a pose 2 cells closer to
+// the truth (scripts/bench_merge, an ACES window pair of seed 99).
+void polish(const Images& im, const SimilarityIndex& full, const FusionParams& params, std::vector<SearchResult>& finals) {
+  const ChamferPolish chamfer(im.a, im.b, params.chamfer_truncation);
+  for (SearchResult& f : finals) {
+    const CellTransform polished = chamfer.polish(f.transform);
+    const SimilarityCounts counts = full.evaluate(polished);
+    if (counts.score(params.disagreement_weight) >= kPolishKeepsScore * f.counts.score(params.disagreement_weight))
+      f = {polished, counts};
+  }
+}
+
+// The best-scoring final whose own counts pass the checks (V, wall agreement, shared wall,
+// entropy) moves to the front; a final that fails them contradicts the maps and is set aside as
+// the answer. Returns how many were set aside (all of them when none is plausible: the best one
+// then stays in front and is reported with its reason).
+template <typename Plausible>
+int bringBestPlausibleToFront(std::vector<SearchResult>& finals, double w, const Plausible& plausible) {
+  std::sort(finals.begin(), finals.end(),
+            [w](const SearchResult& x, const SearchResult& y) { return x.counts.score(w) > y.counts.score(w); });
+  const auto first_plausible = std::find_if(finals.begin(), finals.end(), plausible);
+  if (first_plausible == finals.end()) return 0;
+  std::rotate(finals.begin(), first_plausible, first_plausible + 1);
+  return static_cast<int>(first_plausible - finals.begin());
+}
+
+// The best distinct plausible alternative: a pose elsewhere that explains the maps nearly as
+// well means we cannot tell where B is (symmetric buildings, repeated rooms). The comparison is
+// made with the disagreement weight w and again with 2w: a choice that flips when conflicts
+// count double (a small clean overlap against a larger one with a few percent of conflicts,
+// e.g. ACES and its half-turn twin) is not a choice we can stand behind. A set-aside final is a
+// rival only with 2w: a twin that loses on its own counts yet still outscores the answer when
+// conflicts count double is one we cannot rule out with confidence either.
+template <typename Plausible>
+double ambiguity(const std::vector<SearchResult>& finals, double resolution, const FusionParams& params,
+                 const Plausible& plausible) {
+  const SearchResult& best = finals.front();
+  const double w = params.disagreement_weight;
+  double worst = best.counts.score(w) > 0 ? 0.0 : 1.0;
+  const double distinct_cells = params.verification.distinct_shift_m / resolution;
+  for (const SearchResult& f : finals) {
+    if (&f == &best ||
+        sameHypothesis(f.transform, best.transform, distinct_cells, params.verification.distinct_turn_deg * kDeg))
+      continue;
+    const bool contradicts_maps = !plausible(f);
+    for (const double weight : {w, 2 * w}) {
+      if (contradicts_maps && weight == w) continue;
+      const double best_score = best.counts.score(weight);
+      worst = std::max(worst, best_score > 0 ? f.counts.score(weight) / best_score : 1.0);
     }
   }
-  // A final whose own counts fail the checks (V, wall agreement, shared wall, entropy)
-  // contradicts the maps and is set aside as the answer. The best plausible final is the
-  // answer; when none is plausible the best one is reported with its reason.
-  const double walls_a = cv::countNonZero(ternary_a == kOccupiedCell);
-  const double walls_b = cv::countNonZero(ternary_b == kOccupiedCell);
-  const double smaller_walls = std::min(walls_a, walls_b);
+  return worst;
+}
+
+FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
+  FusionResult result;
+  StageClock clock(result);
+  const Images im = prepareImages(a, b, params);
+  clock.lap("prepare");
+
+  std::vector<Hypothesis> hypotheses;
+  addSpectrumHypotheses(im, params, hypotheses, clock);
+  addSegmentHypotheses(im, params, hypotheses);
+  clock.lap("segments");
+  result.hypotheses = static_cast<int>(hypotheses.size());
+
+  const SimilarityIndex coarse_index(im.pyr_a[im.coarse], im.pyr_b[im.coarse], params.max_free_points,
+                                     params.disagreement_weight);
+  std::vector<CellTransform> survivors = bestCoarsePoses(hypotheses, coarse_index, params);
+  clock.lap("coarse");
+  tuneRotations(im, coarse_index, params, survivors);
+  clock.lap("radon");
+
+  std::vector<SearchResult> finals(survivors.size());
+  for (size_t i = 0; i < survivors.size(); ++i) finals[i].transform = survivors[i];
+  const std::unique_ptr<SimilarityIndex> finest = refineDownThePyramid(im, params, finals);
+  clock.lap("pyramid");
+  const SimilarityIndex& full = finest ? *finest : coarse_index;
+  if (!finest)
+    for (SearchResult& f : finals) f.counts = full.evaluate(f.transform);
+  if (params.chamfer_polish && finest) polish(im, full, params, finals);
+
+  const double smaller_walls =
+      std::min(cv::countNonZero(im.a == kOccupiedCell), cv::countNonZero(im.b == kOccupiedCell));
   auto plausible = [&](const SearchResult& f) {
-    return verify(f.counts, a.resolution, 1.0, smaller_walls, 0.0, params.verification).accepted;
+    return verify(f.counts, a.resolution, 1.0, smaller_walls, 0.0, WallConsistency{}, params.verification).accepted;
   };
-  std::sort(finals.begin(), finals.end(), [w](const SearchResult& x, const SearchResult& y) {
-    return x.counts.score(w) > y.counts.score(w);
-  });
-  const auto first_plausible = std::find_if(finals.begin(), finals.end(), plausible);
-  if (first_plausible != finals.end()) {
-    result.set_aside = static_cast<int>(first_plausible - finals.begin());
-    std::rotate(finals.begin(), first_plausible, first_plausible + 1);
-  }
-  const auto best = finals.begin();
-  if (best == finals.end()) {
+  result.set_aside = bringBestPlausibleToFront(finals, params.disagreement_weight, plausible);
+  if (finals.empty()) {
     result.verdict.reason = "no hypothesis found";
   } else {
-    // The best distinct plausible alternative: a pose elsewhere that explains the maps nearly
-    // as well means we cannot tell where B is (symmetric buildings, repeated rooms). The
-    // comparison is made with the disagreement weight w and again with 2w: a choice that
-    // flips when conflicts count double (a small clean overlap against a larger one with a
-    // few percent of conflicts, e.g. ACES and its half-turn twin) is not a choice we can
-    // stand behind. A set-aside final is a rival only with 2w: a twin that loses on its own
-    // counts yet still outscores the answer when conflicts count double is one we cannot rule
-    // out with confidence either.
-    double ambiguity = best->counts.score(w) > 0 ? 0.0 : 1.0;
-    const double distinct_cells = params.verification.distinct_shift_m / a.resolution;
-    for (const SearchResult& f : finals) {
-      if (&f == &*best ||
-          sameHypothesis(f.transform, best->transform, distinct_cells, params.verification.distinct_turn_deg * kDeg))
-        continue;
-      const bool contradicts_maps = !plausible(f);
-      for (const double weight : {w, 2 * w}) {
-        if (contradicts_maps && weight == w) continue;
-        const double best_score = best->counts.score(weight);
-        ambiguity = std::max(ambiguity, best_score > 0 ? f.counts.score(weight) / best_score : 1.0);
-      }
-    }
-    stage("polish");
-    result.cells = best->transform;
-    result.verdict = verify(best->counts, a.resolution, distinctiveness(full, *best, a.resolution, params),
-                            smaller_walls, ambiguity, params.verification);
+    const SearchResult& best = finals.front();
+    const double rivals = ambiguity(finals, a.resolution, params, plausible);
+    clock.lap("polish");
+    result.cells = best.transform;
+    const WallConsistency walls =
+        WallConsistencyCheck(im.a, im.b, params.verification.wall_tolerance_cells).evaluate(best.transform);
+    result.verdict = verify(best.counts, a.resolution, distinctiveness(full, best, a.resolution, params),
+                            smaller_walls, rivals, walls, params.verification);
     result.accepted = result.verdict.accepted;
     result.pose = poseFromCells(a, b, result.cells);
-    stage("verify");
+    clock.lap("verify");
   }
-  result.time_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.time_ms = clock.totalMs();
   return result;
 }
 
