@@ -461,6 +461,35 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
 
 }  // namespace
 
+// A merge nodelet given a fusion yaml with a value out of range (test/bad_fusion.yaml) says so
+// in merge_status at ERROR level, naming the key (and subscribes to no map): no quiet fallback
+// to the defaults.
+TEST(BadFusionConfig, TheMergeNodeletRefusesItLoudly) {
+  ros::NodeHandle nh;
+  std::mutex mutex;
+  diagnostic_msgs::DiagnosticArray::ConstPtr status;
+  ros::Subscriber sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/bad_config/merge_status", 1, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        status = m;
+      });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  for (int i = 0; i < 100; ++i) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (status) break;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_TRUE(status) << "no merge_status from the nodelet with the bad fusion yaml";
+  ASSERT_EQ(status->status.size(), 1u);
+  EXPECT_EQ(status->status[0].level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_NE(status->status[0].message.find("fusion_config refused"), std::string::npos) << status->status[0].message;
+  EXPECT_NE(status->status[0].message.find("'min_acceptance'"), std::string::npos) << status->status[0].message;
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_multi_robot");

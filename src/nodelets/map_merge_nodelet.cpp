@@ -108,7 +108,18 @@ class MapMergeNodelet : public nodelet::Nodelet {
     diagnostics_->setHardwareID(nh.getNamespace());
     diagnostics_->add("map merge", this, &MapMergeNodelet::diagnose);
     diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
-    if (!config_problem_.empty()) return;
+    if (!config_problem_.empty()) {
+      // merge_status is latched: whoever watches it learns why this robot merges nothing.
+      auto array = boost::make_shared<diagnostic_msgs::DiagnosticArray>();
+      array->header.stamp = ros::Time::now();
+      diagnostic_msgs::DiagnosticStatus status;
+      status.level = diagnostic_msgs::DiagnosticStatus::ERROR;
+      status.name = robot_id_;
+      status.message = config_problem_;
+      array->status.push_back(status);
+      status_pub_.publish(diagnostic_msgs::DiagnosticArray::ConstPtr(array));
+      return;
+    }
     own_sub_ = nh.subscribe("map", 1, &MapMergeNodelet::onOwnMap, this);
     share_sub_ = nh.subscribe(topic, 20, &MapMergeNodelet::onShare, this);
     compressed_share_sub_ = nh.subscribe(compressed_topic, 20, &MapMergeNodelet::onCompressedShare, this);
