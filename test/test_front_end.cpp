@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <iterator>
 #include <unistd.h>
 
@@ -106,6 +107,25 @@ TEST(RobotLogs, MinesAndRawlogAreRead) {
   const RobotLog rawlog = readRobotLog(test::dataPath("logs/mrpt/2006-01ENE-21-SENA_Telecom_Faculty_one_loop_only.rawlog"));
   EXPECT_EQ(rawlog.records.size(), 225u);
   EXPECT_TRUE(scanProblem(rawlog.records[0].scan).empty());
+}
+
+// Found by the fuzz_log_readers target: an encoder count of 8.9e31 made the conversion to an
+// integer undefined. Such a line is skipped with a warning naming it; the rest is read.
+TEST(RobotLogs, MinesLineWithAnAbsurdEncoderCountIsSkippedNamingIt) {
+  std::ifstream real(test::dataPath("logs/mines/exp2.dat"));
+  std::string first, second;
+  ASSERT_TRUE(std::getline(real, first) && std::getline(real, second));
+  std::istringstream fields(first);
+  std::string stamp, pan, left;
+  fields >> stamp >> pan >> left;
+  const std::string path = ::testing::TempDir() + "/absurd_encoder.dat";
+  std::ofstream(path) << stamp << " " << pan << " 8.88889e+31" << first.substr(first.find(left) + left.size()) << "\n"
+                      << second << "\n";
+  const RobotLog log = readRobotLog(path);
+  EXPECT_EQ(log.records.size(), 1u);
+  ASSERT_EQ(log.warnings.size(), 1u);
+  EXPECT_NE(log.warnings[0].find(path + ":1: encoder counts out of range"), std::string::npos) << log.warnings[0];
+  std::remove(path.c_str());
 }
 
 TEST(RobotLogs, BadLinesAreSkippedWithTheLineNumberAndUnreadableFilesThrow) {

@@ -4,6 +4,7 @@
 // 0 = no return). The robot model is the one published with the data (BreezySLAM mines.py):
 // wheel radius 77 mm, half axle 165 mm, 2000 counts per wheel turn, laser 145 mm ahead of the
 // axle centre.
+#include <cmath>
 #include <sstream>
 
 #include "mrslam/slam/robot_log.h"
@@ -14,6 +15,7 @@ namespace mrslam::slam {
 namespace {
 constexpr double kWheelRadius = 0.077, kHalfAxle = 0.165, kCountsPerTurn = 2000.0;
 constexpr int kBeams = 682, kFirstRangeField = 24;
+constexpr double kMaxEncoderCount = 1e15;  // counts beyond this are not an encoder's
 constexpr double kFieldOfView = 240.0 * M_PI / 180.0;
 }  // namespace
 
@@ -37,6 +39,12 @@ RobotLog readMinesLog(const std::string& path) {
     if (fields.size() < static_cast<size_t>(kFirstRangeField + kBeams)) {
       log.warnings.push_back(path + ":" + std::to_string(number) + ": truncated line skipped (" +
                              std::to_string(fields.size()) + " fields)");
+      continue;
+    }
+    // Encoder counts become integers: a count that is not finite or beyond any encoder (the
+    // libFuzzer target found 8.9e31) would make the conversion undefined.
+    if (!(std::abs(fields[2]) < kMaxEncoderCount && std::abs(fields[3]) < kMaxEncoderCount)) {
+      log.warnings.push_back(path + ":" + std::to_string(number) + ": encoder counts out of range, line skipped");
       continue;
     }
     LogRecord record;
