@@ -280,14 +280,14 @@ TEST(Verification, AcceptsTheTruthRejectsAWrongPoseAndAnotherBuilding) {
   const cv::Mat t = intelCrop();
   const SimilarityIndex same(t, t, 0);
   VerificationParams params;
-  EXPECT_TRUE(verify(same.evaluate({0, {0, 0}}), 0.05, 1.0, 1000.0, 0.0, WallConsistency{}, params).accepted);
-  const Verdict wrong = verify(same.evaluate({90 * kDeg, {300, 0}}), 0.05, 1.0, 1000.0, 0.0, WallConsistency{}, params);
+  EXPECT_TRUE(verify(same.evaluate({0, {0, 0}}), 0.05, 1.0, 1000.0, 0.0, 0.0, params).accepted);
+  const Verdict wrong = verify(same.evaluate({90 * kDeg, {300, 0}}), 0.05, 1.0, 1000.0, 0.0, 0.0, params);
   EXPECT_FALSE(wrong.accepted);
   const OccupancyGrid aces = loadMap(test::referenceMap("aces"));
   const cv::Mat other = toTernary(bench::cropGrid(aces, 400, 400, 300, 300));
   const SimilarityIndex different(t, other, 0);
   const SearchResult best = different.search({0, {0, 0}}, 20, kDeg, 3);
-  const Verdict v = verify(best.counts, 0.05, 1.0, 1000.0, 0.0, WallConsistency{}, params);
+  const Verdict v = verify(best.counts, 0.05, 1.0, 1000.0, 0.0, 0.0, params);
   EXPECT_FALSE(v.accepted);
   EXPECT_FALSE(v.reason.empty());
   EXPECT_DOUBLE_EQ(fusedEntropyIncrease(same.evaluate({0, {0, 0}})), 0.0);

@@ -21,7 +21,7 @@ namespace {
 // 101's hall (a 700 x 700 crop) against the whole Freiburg 079 map in a random frame, accepted
 // with V 0.985 and 0.989: Freiburg 079's corridor laid along the outside of Freiburg 101's hall
 // wall, agreeing cell for cell, each map's free space behind the other's wall. Rejected now by
-// the physical-consistency checks (wall_consistency.h).
+// the see-through check (see_through.h).
 // (regressions/cross_building_accept, a whole map against a piece of ACES sharing one wall
 // line and a T-junction, is still accepted: see the README's "What is left".)
 TEST(MergeRegressions, ACorridorStubOfAnotherBuildingIsRejected) {

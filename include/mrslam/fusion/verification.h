@@ -11,7 +11,7 @@
 //    direction, or turned a few degrees). Two corridors overlay well at many shifts; a pose
 //    that is not a clear extremum is not evidence of where B is (cf. the paper's Fig. 10);
 //    likewise a distinct alternative pose (another hypothesis) that scores nearly as well;
-//  - physical consistency (wall_consistency.h): no free space seen through the other map's
+//  - physical consistency (see_through.h): no free space seen through the other map's
 //    walls. It catches overlays of two buildings that agree cell for cell along one wall, e.g.
 //    a corridor laid along the outside of another building's hall (test_merge_regressions).
 #pragma once
@@ -19,7 +19,6 @@
 #include <string>
 
 #include "mrslam/fusion/similarity_index.h"
-#include "mrslam/fusion/wall_consistency.h"
 
 namespace mrslam::fusion {
 
@@ -33,8 +32,7 @@ struct VerificationParams {
   double distinct_shift_m = 1.0;       // displacement used for distinctiveness
   double distinct_turn_deg = 3.0;      // rotation used for distinctiveness
   double max_ambiguity = 0.95;         // best distinct alternative's score / best score
-  double wall_tolerance_cells = 2.0;   // walls this close agree (WallConsistency's shares)
-  double max_seen_through = 0.5;       // free space behind the other map's walls (WallConsistency)
+  double max_seen_through = 0.5;       // free space behind the other map's walls (see_through.h)
 };
 
 struct Verdict {
@@ -46,7 +44,7 @@ struct Verdict {
   double entropy_increase = 0;
   double distinctiveness = 0;
   double ambiguity = 0;
-  WallConsistency walls;
+  double seen_through = 0;     // free space seen through the other map's walls (see_through.h)
   std::string reason;          // why it was rejected; empty when accepted
   bool no_overlap_found = false;  // rejected for too little shared wall: the pose explains
                                   // nothing, as opposed to a real overlap failing a check
@@ -57,10 +55,10 @@ double fusedEntropyIncrease(const SimilarityCounts& counts);
 
 // `distinctiveness` is 1 - (best score of the displaced poses) / (score of the pose);
 // `smaller_map_walls` the number of obstacle cells of the map with fewer of them;
-// `ambiguity` the score of the best distinct alternative pose over the pose's score; `walls`
-// the pose's physical consistency (all zeros passes: used when ranking candidate poses).
+// `ambiguity` the score of the best distinct alternative pose over the pose's score;
+// `seen_through` SeeThroughCheck's figure for the pose (0 passes: used when ranking candidates).
 Verdict verify(const SimilarityCounts& counts, double resolution, double distinctiveness,
-               double smaller_map_walls, double ambiguity, const WallConsistency& walls,
+               double smaller_map_walls, double ambiguity, double seen_through,
                const VerificationParams& params);
 
 }  // namespace mrslam::fusion

@@ -22,8 +22,8 @@ Field field(T& value, double low, double high) {
           [&value]() {
             std::ostringstream out;
             out.precision(17);
-            out << (std::is_same_v<T, bool> ? (value ? "true" : "false") : "");
-            if constexpr (!std::is_same_v<T, bool>) out << value;
+            if constexpr (std::is_same_v<T, bool>) out << (value ? "true" : "false");
+            else out << value;
             return out.str();
           },
           [&value, low, high]() -> std::string {
@@ -91,7 +91,6 @@ std::map<std::string, Field> fields(FusionParams& p) {
       {"distinct_shift_m", field(v.distinct_shift_m, 0, kBig)},
       {"distinct_turn_deg", field(v.distinct_turn_deg, 0, 180)},
       {"max_ambiguity", field(v.max_ambiguity, 0, kBig)},
-      {"wall_tolerance_cells", field(v.wall_tolerance_cells, 0, 100)},
       {"max_seen_through", field(v.max_seen_through, 0, 1)},
   };
 }

@@ -11,6 +11,7 @@
 #include "mrslam/fusion/chamfer_polish.h"
 #include "mrslam/fusion/correlation_search.h"
 #include "mrslam/fusion/radon.h"
+#include "mrslam/fusion/see_through.h"
 #include "mrslam/fusion/similarity_index.h"
 #include "mrslam/fusion/ternary_image.h"
 
@@ -324,7 +325,7 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
   const double smaller_walls =
       std::min(cv::countNonZero(im.a == kOccupiedCell), cv::countNonZero(im.b == kOccupiedCell));
   auto plausible = [&](const SearchResult& f) {
-    return verify(f.counts, a.resolution, 1.0, smaller_walls, 0.0, WallConsistency{}, params.verification).accepted;
+    return verify(f.counts, a.resolution, 1.0, smaller_walls, 0.0, 0.0, params.verification).accepted;
   };
   result.set_aside = bringBestPlausibleToFront(finals, params.disagreement_weight, plausible);
   if (finals.empty()) {
@@ -334,10 +335,9 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
     const double rivals = ambiguity(finals, a.resolution, params, plausible);
     clock.lap("polish");
     result.cells = best.transform;
-    const WallConsistency walls =
-        WallConsistencyCheck(im.a, im.b, params.verification.wall_tolerance_cells).evaluate(best.transform);
+    const double seen_through = SeeThroughCheck(im.a, im.b).seenThrough(best.transform);
     result.verdict = verify(best.counts, a.resolution, distinctiveness(full, best, a.resolution, params),
-                            smaller_walls, rivals, walls, params.verification);
+                            smaller_walls, rivals, seen_through, params.verification);
     result.accepted = result.verdict.accepted;
     result.pose = poseFromCells(a, b, result.cells);
     clock.lap("verify");

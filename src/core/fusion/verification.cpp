@@ -28,10 +28,10 @@ double fusedEntropyIncrease(const SimilarityCounts& k) {
 }
 
 Verdict verify(const SimilarityCounts& counts, double resolution, double distinctiveness,
-               double smaller_map_walls, double ambiguity, const WallConsistency& walls,
+               double smaller_map_walls, double ambiguity, double seen_through,
                const VerificationParams& p) {
   Verdict v;
-  v.walls = walls;
+  v.seen_through = seen_through;
   v.ambiguity = ambiguity;
   v.shared_wall_fraction = smaller_map_walls > 0 ? counts.occupied_agree / smaller_map_walls : 0.0;
   v.distinctiveness = distinctiveness;
@@ -53,8 +53,8 @@ Verdict verify(const SimilarityCounts& counts, double resolution, double distinc
     why << "wall agreement " << v.wall_agreement << " < " << p.min_wall_agreement;
   else if (v.entropy_increase > p.max_entropy_increase)
     why << "entropy increase " << v.entropy_increase << " bits > " << p.max_entropy_increase;
-  else if (walls.seen_through > p.max_seen_through)
-    why << "free space seen through the other map's walls (" << walls.seen_through << " > " << p.max_seen_through << ")";
+  else if (seen_through > p.max_seen_through)
+    why << "free space seen through the other map's walls (" << seen_through << " > " << p.max_seen_through << ")";
   else if (v.ambiguity > p.max_ambiguity)
     why << "ambiguous: another pose scores " << v.ambiguity << " of the best (> " << p.max_ambiguity << ")";
   else if (v.distinctiveness < p.min_distinctiveness)
