@@ -46,6 +46,7 @@
 #include "mrslam/ros/shared_map.h"
 #include "master_query.h"
 #include "ros_conversions.h"
+#include "ros_params.h"
 #include "share_codec.h"
 
 namespace mrslam::nodelets {
@@ -62,35 +63,36 @@ class MapMergeNodelet : public nodelet::Nodelet {
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
+    const PrivateParams config(pnh);  // one call to the master for every key
     std::string topic, fusion_config;
-    pnh.param<std::string>("robot_id", robot_id_, "robot1");
-    pnh.param<std::string>("map_frame", map_frame_, robot_id_ + "/map");
+    config.param<std::string>("robot_id", robot_id_, "robot1");
+    config.param<std::string>("map_frame", map_frame_, robot_id_ + "/map");
     std::string compressed_topic;
-    pnh.param<std::string>("share_topic", topic, "/mrslam/map_share");
-    pnh.param<std::string>("compressed_share_topic", compressed_topic, "/mrslam/map_share_z");
+    config.param<std::string>("share_topic", topic, "/mrslam/map_share");
+    config.param<std::string>("compressed_share_topic", compressed_topic, "/mrslam/map_share_z");
     share_topics_ = {nh.resolveName(topic), nh.resolveName(compressed_topic)};
-    pnh.param<std::string>("fusion_config", fusion_config, "");
-    pnh.param<std::string>("octomap_path", octomap_path_, "/tmp/" + robot_id_ + "_merged_map.bt");
-    pnh.param("max_peer_cells", max_peer_cells_, 64.0e6);
-    pnh.param("merged_map_period", merged_map_period_, 2.0);
+    config.param<std::string>("fusion_config", fusion_config, "");
+    config.param<std::string>("octomap_path", octomap_path_, "/tmp/" + robot_id_ + "_merged_map.bt");
+    config.param("max_peer_cells", max_peer_cells_, 64.0e6);
+    config.param("merged_map_period", merged_map_period_, 2.0);
     fusion::PeerRegistryParams registry_params;
-    pnh.param("regrow_fraction", registry_params.regrow_fraction, registry_params.regrow_fraction);
-    pnh.param("consistent_m", registry_params.consistent_m, registry_params.consistent_m);
-    pnh.param("consistent_deg", registry_params.consistent_deg, registry_params.consistent_deg);
-    pnh.param("switch_margin", registry_params.switch_margin, registry_params.switch_margin);
+    config.param("regrow_fraction", registry_params.regrow_fraction, registry_params.regrow_fraction);
+    config.param("consistent_m", registry_params.consistent_m, registry_params.consistent_m);
+    config.param("consistent_deg", registry_params.consistent_deg, registry_params.consistent_deg);
+    config.param("switch_margin", registry_params.switch_margin, registry_params.switch_margin);
     int min_known = static_cast<int>(registry_params.min_known_cells);
-    pnh.param("min_known_cells", min_known, min_known);
+    config.param("min_known_cells", min_known, min_known);
     registry_params.min_known_cells = static_cast<size_t>(std::max(0, min_known));
-    pnh.param("refresh_period", registry_params.refresh_period, registry_params.refresh_period);
-    pnh.param("revoke_after_rejections", registry_params.revoke_after_rejections, registry_params.revoke_after_rejections);
+    config.param("refresh_period", registry_params.refresh_period, registry_params.refresh_period);
+    config.param("revoke_after_rejections", registry_params.revoke_after_rejections, registry_params.revoke_after_rejections);
     registry_ = std::make_unique<fusion::PeerRegistry>(robot_id_, registry_params);
     fusion::PeerQuarantineParams quarantine_params;
-    pnh.param("bad_maps_to_quarantine", quarantine_params.bad_maps_in_a_row, quarantine_params.bad_maps_in_a_row);
-    pnh.param("quarantine_period", quarantine_params.period_s, quarantine_params.period_s);
+    config.param("bad_maps_to_quarantine", quarantine_params.bad_maps_in_a_row, quarantine_params.bad_maps_in_a_row);
+    config.param("quarantine_period", quarantine_params.period_s, quarantine_params.period_s);
     quarantine_ = fusion::PeerQuarantine(quarantine_params);
-    pnh.param("max_peers", max_peers_, max_peers_);
-    pnh.param("owner_timeout", owner_timeout_, owner_timeout_);
-    pnh.param("stale_after", stale_after_, stale_after_);
+    config.param("max_peers", max_peers_, max_peers_);
+    config.param("owner_timeout", owner_timeout_, owner_timeout_);
+    config.param("stale_after", stale_after_, stale_after_);
     if (!fusion_config.empty()) {
       try {
         fusion_params_ = fusion::loadFusionParams(fusion_config);

@@ -19,6 +19,7 @@
 
 #include "mrslam/cell_codec.h"
 #include "mrslam/ros/shared_map.h"
+#include "ros_params.h"
 
 namespace mrslam::nodelets {
 
@@ -27,15 +28,16 @@ class MapShareNodelet : public nodelet::Nodelet {
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
+    const PrivateParams config(pnh);  // one call to the master for every key
     std::string topic, compressed_topic, encoding;
     double rate = 0.5;
-    pnh.param<std::string>("robot_id", robot_id_, "robot1");
-    pnh.param<std::string>("share_topic", topic, "/mrslam/map_share");
-    pnh.param<std::string>("compressed_share_topic", compressed_topic, "/mrslam/map_share_z");
-    pnh.param<std::string>("share_encoding", encoding, "zlib");
-    pnh.param("share_compression_level", compression_level_, 1);
-    pnh.param("share_rate", rate, rate);
-    pnh.param("share_keyframe_period", keyframe_period_, 30.0);
+    config.param<std::string>("robot_id", robot_id_, "robot1");
+    config.param<std::string>("share_topic", topic, "/mrslam/map_share");
+    config.param<std::string>("compressed_share_topic", compressed_topic, "/mrslam/map_share_z");
+    config.param<std::string>("share_encoding", encoding, "zlib");
+    config.param("share_compression_level", compression_level_, 1);
+    config.param("share_rate", rate, rate);
+    config.param("share_keyframe_period", keyframe_period_, 30.0);
     if (encoding != "zlib" && encoding != "none") {
       NODELET_ERROR("share_encoding '%s' is neither \"zlib\" nor \"none\": using \"zlib\"", encoding.c_str());
       encoding = "zlib";

@@ -56,23 +56,24 @@ class SlamNodelet : public nodelet::Nodelet {
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
-    pnh.param<std::string>("map_frame", map_frame_, "map");
-    pnh.param<std::string>("odom_frame", odom_frame_, "odom");
-    pnh.param<std::string>("base_frame", base_frame_, "base_link");
-    pnh.param("publish_tf", publish_tf_, true);
-    pnh.param("transform_tolerance", transform_tolerance_, 0.1);
-    pnh.param("max_time_jump", max_time_jump_, 1.0);
-    pnh.param("restart_scans", restart_scans_, 3);
-    pnh.param("future_tolerance", future_tolerance_, 10.0);
-    pnh.param("max_rays", max_rays_, 10000);
-    pnh.param("trajectory_max_poses", trajectory_max_poses_, 20000);
-    pnh.param("input_owner_timeout", input_owner_timeout_, 5.0);
-    pnh.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
-    pnh.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
+    const PrivateParams config(pnh);  // one call to the master for every key
+    config.param<std::string>("map_frame", map_frame_, "map");
+    config.param<std::string>("odom_frame", odom_frame_, "odom");
+    config.param<std::string>("base_frame", base_frame_, "base_link");
+    config.param("publish_tf", publish_tf_, true);
+    config.param("transform_tolerance", transform_tolerance_, 0.1);
+    config.param("max_time_jump", max_time_jump_, 1.0);
+    config.param("restart_scans", restart_scans_, 3);
+    config.param("future_tolerance", future_tolerance_, 10.0);
+    config.param("max_rays", max_rays_, 10000);
+    config.param("trajectory_max_poses", trajectory_max_poses_, 20000);
+    config.param("input_owner_timeout", input_owner_timeout_, 5.0);
+    config.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
+    config.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
     double map_rate = 1.0, period = 1.0;
-    pnh.param("map_publish_rate", map_rate, map_rate);
-    pnh.param("diagnostics_period", period, period);
-    params_ = robotSlamParamsFrom(pnh);
+    config.param("map_publish_rate", map_rate, map_rate);
+    config.param("diagnostics_period", period, period);
+    params_ = robotSlamParamsFrom(config);
     if (!(params_.grid.resolution > 0)) {
       NODELET_ERROR("map_resolution must be > 0 (got %f): using 0.05", params_.grid.resolution);
       params_.grid.resolution = 0.05;
