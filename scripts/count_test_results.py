@@ -21,7 +21,10 @@ def main(results_dir: str, runner_status: int) -> int:
             if case.find("failure") is not None or case.find("error") is not None:
                 failed += 1
                 print(f"FAILED: {case.get('classname')}.{case.get('name')}")
-            elif case.find("skipped") is None and case.get("status", "run") != "notrun":
+            elif case.find("skipped") is not None:
+                # Never silently: the reason is printed above the summary line.
+                print(f"SKIPPED: {case.get('classname')}.{case.get('name')}: {case.find('skipped').get('message', '')}")
+            elif case.get("status", "run") != "notrun":
                 passed += 1
     if runner_status != 0 and failed == 0:
         print(f"test runner exited with status {runner_status}")

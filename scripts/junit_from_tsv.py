@@ -1,5 +1,6 @@
-"""Writes JUnit XML from 'suite<TAB>name<TAB>passed|failed<TAB>message' lines (the jobs in
-scripts/sanitize that are not gtests), so scripts/count_test_results.py counts them."""
+"""Writes JUnit XML from 'suite<TAB>name<TAB>passed|failed|skipped<TAB>message' lines (the jobs
+in scripts/sanitize and scripts/multi_host, which are not gtests), so
+scripts/count_test_results.py counts them; a skipped case keeps its reason."""
 import sys
 import xml.etree.ElementTree as ET
 
@@ -17,7 +18,9 @@ def main(tsv: str, out: str) -> None:
             if suite not in suites:
                 suites[suite] = ET.SubElement(root, "testsuite", name=suite)
             case = ET.SubElement(suites[suite], "testcase", classname=suite, name=name)
-            if status != "passed":
+            if status == "skipped":
+                ET.SubElement(case, "skipped", message=message[:2000])
+            elif status != "passed":
                 ET.SubElement(case, "failure", message=message[:2000])
             elif message:
                 ET.SubElement(case, "system-out").text = message[:2000]

@@ -5,7 +5,9 @@
 // and whether the accepted transform is correct (within 1 degree and 2 cells of the truth from
 // the bag's reference poses, mrslam/bench/peer_frame_truth.h), and the bytes each robot put on
 // the link between robots (the compressed share topic; new maps, keyframes apart) per second of
-// the bag's clock.
+// the bag's clock. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
+// (accepted, delay, correct, stale: as the last status said).
+// The clock it reads is /clock (remap it to follow one robot's clock).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -32,6 +34,7 @@ struct PairStatus {
   double delay = -1;  // simulated s from the peer's first map to the accepted transform
   mrslam::Pose2D pose;
   bool current = false;  // the estimate was made on both maps as they are now
+  bool stale = false;    // the merger has heard nothing from the peer for stale_after
 };
 }  // namespace
 
@@ -75,6 +78,7 @@ int main(int argc, char** argv) {
             for (const auto& kv : s.values) v[kv.key] = kv.value;
             PairStatus p;
             p.accepted = v["accepted"] == "True";
+            p.stale = v["stale"] == "True";
             if (p.accepted) {
               p.delay = std::stod(v["accepted_since"]) - std::stod(v["first_map_time"]);
               p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
@@ -114,16 +118,24 @@ int main(int argc, char** argv) {
   for (const auto& [key, value] : pairs) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
-    if (!value.accepted) continue;
+    if (!value.accepted) {
+      std::printf("pair robot%d <- %s accepted=0 stale=%d\n", key.first, key.second.c_str(), value.stale ? 1 : 0);
+      continue;
+    }
     ++accepted, delays.push_back(value.delay);
     const int peer = std::atoi(key.second.c_str() + 5);
     if (!world[key.first] || world.count(peer) == 0 || !world[peer]) {
       ++unchecked;
+      std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d\n", key.first,
+                  key.second.c_str(), value.delay, value.stale ? 1 : 0);
       continue;
     }
     const auto e = mrslam::bench::peerFrameError(value.pose, *world[key.first], *world[peer], tracks[peer]);
     const double cells = e.metres / 0.05;  // map_resolution in config/robot.yaml
-    if (e.yaw_deg <= 1.0 && cells <= 2.0) {
+    const bool right = e.yaw_deg <= 1.0 && cells <= 2.0;
+    std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d deg=%.2f cells=%.2f\n", key.first,
+                key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, e.yaw_deg, cells);
+    if (right) {
       ++correct;
     } else {
       // The truth is only as good as the two robots' fits to the reference (their drift).
