@@ -8,7 +8,8 @@
 // fusion/peer_registry.h (static, robotP/map -> robotN/map), merged_map (OccupancyGrid in our
 // map frame, latched), merge_status (diagnostic_msgs/DiagnosticArray, one status per peer:
 // accepted, x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time, and
-// stale: nothing heard from the peer for stale_after s),
+// stale: nothing heard from the peer for stale_after s; while a peer is stale the share
+// subscriptions are re-made every stale_after, see reconnectIfStale),
 // diagnostics; service ~export_octomap (std_srvs/Trigger) writes the merged map as an OctoMap
 // .bt to the parameter octomap_path.
 //
@@ -109,7 +110,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(nh.getNamespace());
     diagnostics_->add("map merge", this, &MapMergeNodelet::diagnose);
-    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
+      diagnostics_->force_update();
+      reconnectIfStale();
+    });
     if (!config_problem_.empty()) {
       // merge_status is latched: whoever watches it learns why this robot merges nothing.
       auto array = boost::make_shared<diagnostic_msgs::DiagnosticArray>();
@@ -123,10 +127,41 @@ class MapMergeNodelet : public nodelet::Nodelet {
       return;
     }
     own_sub_ = nh.subscribe("map", 1, &MapMergeNodelet::onOwnMap, this);
-    share_sub_ = nh.subscribe(topic, 20, &MapMergeNodelet::onShare, this);
-    compressed_share_sub_ = nh.subscribe(compressed_topic, 20, &MapMergeNodelet::onCompressedShare, this);
+    subscribeShares();
     export_srv_ = pnh.advertiseService("export_octomap", &MapMergeNodelet::onExport, this);
     worker_ = std::thread(&MapMergeNodelet::work, this);
+  }
+
+  void subscribeShares() {
+    ros::NodeHandle& nh = getNodeHandle();
+    share_sub_ = nh.subscribe(share_topics_[0], 20, &MapMergeNodelet::onShare, this);
+    compressed_share_sub_ = nh.subscribe(share_topics_[1], 20, &MapMergeNodelet::onCompressedShare, this);
+  }
+
+  // A peer silent for stale_after is out of range, down, or behind a link that came back while
+  // TCP still backs its retransmissions off (after an outage, the first retry may come as late
+  // as the outage was long). Dropping and re-making the share subscriptions opens fresh
+  // connections to every publisher the master lists, so a returned peer is heard again within
+  // stale_after of its return; at most once per stale_after, and never while nobody is stale.
+  // Healthy peers lose at most the share in flight; their next one (a keyframe at the latest)
+  // arrives on the new connection.
+  void reconnectIfStale() {
+    const double now = ros::WallTime::now().toSec();
+    std::string silent;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!config_problem_.empty() || now - last_reconnect_ < stale_after_) return;
+      for (const auto& [id, peer] : registry_->peers())
+        if (now - owners_[id].lastHeard() > stale_after_) silent += (silent.empty() ? "" : ", ") + id;
+      if (silent.empty()) return;
+      last_reconnect_ = now;
+      ++share_reconnects_;
+    }
+    NODELET_WARN_THROTTLE(60.0, "nothing heard from %s for %.0f s (stale): re-making the share subscriptions",
+                          silent.c_str(), stale_after_);
+    share_sub_.shutdown();  // the last handle of each topic in this process: its connections close
+    compressed_share_sub_.shutdown();
+    subscribeShares();
   }
 
   void onOwnMap(const nav_msgs::OccupancyGrid::ConstPtr& map) {
@@ -513,6 +548,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     status.add("peers quarantined", quarantined);
     status.add("shares dropped from quarantined peers", quarantined_shares_);
     status.add("shares refused from impostors", impostor_shares_);
+    status.add("share reconnects (a peer was stale)", share_reconnects_);
     status.add("last problem", last_problem_);
     // For the zero-copy test: the address of the last own map object received.
     status.add("own map address", std::to_string(own_address_));
@@ -542,7 +578,8 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::optional<std::set<std::string>> master_publishers_;
   double master_asked_ = -1e18;
   double owner_timeout_ = 30.0, stale_after_ = 90.0;
-  size_t impostor_shares_ = 0;
+  size_t impostor_shares_ = 0, share_reconnects_ = 0;
+  double last_reconnect_ = -1e18;  // wall s
   nav_msgs::OccupancyGrid::ConstPtr own_msg_;
   std::shared_ptr<const OccupancyGrid> own_grid_;
   nav_msgs::OccupancyGrid::ConstPtr merged_;
