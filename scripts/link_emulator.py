@@ -18,9 +18,9 @@ iptables loss match), and a user-space access point behaves the same on every ke
 network namespaces and tun. If either is missing, the first line on stderr says which and the
 exit status is 77 (skipped), before anything is created.
 
-SIGUSR1 cuts the link of robot --cut-robot (default the last) in both directions, as when it
-drives out of range; the next SIGUSR1 brings it back. SIGUSR2 writes the figures so far to
---stats with the suffix ".snapshot".
+SIGUSR1 cuts one robot's link in both directions, as when it drives out of range: the robot
+named in the file --cut-file (its number), else the last; the next SIGUSR1 brings it back.
+SIGUSR2 writes the figures so far to --stats with the suffix ".snapshot".
 
 Prints "ready" on stdout once every namespace is up. On SIGTERM/SIGINT it deletes the
 namespaces, writes per-robot link figures to --stats (bytes sent and received, packets the
@@ -113,7 +113,7 @@ class AccessPoint:
         self.by_address = {}
         self.events = []  # (time, sequence, destination host, packet)
         self.sequence = 0
-        self.cut_host = args.cut_robot or args.robots
+        self.cut_host = args.robots
         self.cut = False
         self.cut_packets = 0
         self.ready_at = time.monotonic()
@@ -183,6 +183,11 @@ class AccessPoint:
             self.deliver_due(time.monotonic())
 
     def toggle_cut(self):
+        if not self.cut and self.args.cut_file and os.path.exists(self.args.cut_file):
+            with open(self.args.cut_file, encoding="utf-8") as f:
+                named = f.read().strip()
+            if named.isdigit() and 1 <= int(named) <= self.args.robots:
+                self.cut_host = int(named)
         self.cut = not self.cut
 
     def write_stats(self, path):
@@ -205,9 +210,9 @@ def main():
     parser.add_argument("--queue-ms", type=float, default=500.0)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--stats")
-    parser.add_argument("--cut-robot", type=int, default=0)
+    parser.add_argument("--cut-file")
     args = parser.parse_args()
-    if not 1 <= args.robots <= 200 or not 0 <= args.cut_robot <= args.robots or not 0 <= args.loss < 1 or args.delay_ms < 0 or args.rate_kbit < 0 or args.queue_ms <= 0:
+    if not 1 <= args.robots <= 200 or not 0 <= args.loss < 1 or args.delay_ms < 0 or args.rate_kbit < 0 or args.queue_ms <= 0:
         print(f"link_emulator: options out of range: {vars(args)}", file=sys.stderr)
         return 2
     why = missing_feature()

@@ -5,8 +5,10 @@
 // and whether the accepted transform is correct (within 1 degree and 2 cells of the truth from
 // the bag's reference poses, mrslam/bench/peer_frame_truth.h), and the bytes each robot put on
 // the link between robots (the compressed share topic; new maps, keyframes apart) per second of
-// the bag's clock. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
-// (accepted, delay, correct, stale: as the last status said).
+// the bag's clock: mean over robots, the busiest robot's mean, and the most any robot sent in
+// 10 s of the bag's clock. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
+// (accepted, delay, correct, stale: as the last status said; when not accepted, the merger's
+// attempts and its last reason).
 // The clock it reads is /clock (remap it to follow one robot's clock).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -21,6 +23,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "mrslam/bench/peer_frame_truth.h"
@@ -35,7 +38,22 @@ struct PairStatus {
   mrslam::Pose2D pose;
   bool current = false;  // the estimate was made on both maps as they are now
   bool stale = false;    // the merger has heard nothing from the peer for stale_after
+  std::string attempts, why;  // when not accepted: how often the merger tried, and its last reason
 };
+// The most bytes per second any one robot sent over any `window` seconds of the bag's clock.
+double peakRate(const std::map<std::string, std::vector<std::pair<double, double>>>& log, double window) {
+  double peak = 0;
+  for (const auto& [id, sends] : log) {
+    double sum = 0;
+    size_t first = 0;
+    for (size_t i = 0; i < sends.size(); ++i) {
+      sum += sends[i].second;
+      while (sends[i].first - sends[first].first >= window) sum -= sends[first++].second;
+      peak = std::max(peak, sum / window);
+    }
+  }
+  return peak;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -79,6 +97,8 @@ int main(int argc, char** argv) {
             PairStatus p;
             p.accepted = v["accepted"] == "True";
             p.stale = v["stale"] == "True";
+            p.attempts = v["attempts"];
+            p.why = s.message;
             if (p.accepted) {
               p.delay = std::stod(v["accepted_since"]) - std::stod(v["first_map_time"]);
               p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
@@ -90,11 +110,13 @@ int main(int argc, char** argv) {
   }
   std::map<std::string, double> share_bytes;
   std::map<std::string, uint32_t> share_version;
+  std::map<std::string, std::vector<std::pair<double, double>>> share_log;  // (bag s, bytes) per robot
   subs.push_back(nh.subscribe<mrslam::CompressedMapShare>("/mrslam/map_share_z", 100, [&](const mrslam::CompressedMapShare::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex);
     if (m->version <= share_version[m->robot_id]) return;  // a keyframe: the same map again
     share_version[m->robot_id] = m->version;
     share_bytes[m->robot_id] += ros::serialization::serializationLength(*m);
+    share_log[m->robot_id].emplace_back(ros::Time::now().toSec(), ros::serialization::serializationLength(*m));
   }));
   ros::AsyncSpinner spinner(2);
   spinner.start();
@@ -119,7 +141,8 @@ int main(int argc, char** argv) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
     if (!value.accepted) {
-      std::printf("pair robot%d <- %s accepted=0 stale=%d\n", key.first, key.second.c_str(), value.stale ? 1 : 0);
+      std::printf("pair robot%d <- %s accepted=0 stale=%d attempts=%s why=%s\n", key.first, key.second.c_str(),
+                  value.stale ? 1 : 0, value.attempts.c_str(), value.why.c_str());
       continue;
     }
     ++accepted, delays.push_back(value.delay);
@@ -152,7 +175,8 @@ int main(int argc, char** argv) {
     double sum = 0, most = 0;
     for (const auto& [id, bytes] : share_bytes) sum += bytes, most = std::max(most, bytes);
     const double sim = last_clock - first_clock;
-    std::printf("share_kb_per_s mean=%.1f max=%.1f\n", sum / share_bytes.size() / sim / 1000, most / sim / 1000);
+    std::printf("share_kb_per_s mean=%.1f max=%.1f peak_10s=%.1f\n", sum / share_bytes.size() / sim / 1000,
+                most / sim / 1000, peakRate(share_log, 10.0) / 1000);
   }
   std::printf("pairs_seen=%d pairs_accepted=%d of_possible=%d\n", total, accepted, robots * (robots - 1));
   std::printf("pairs_correct=%d pairs_unchecked=%d\n", correct, unchecked);
