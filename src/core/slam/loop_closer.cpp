@@ -84,11 +84,6 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const LoopQuery& query, int in
     ++stats.loop_rejected_icp;
     return std::nullopt;
   }
-  if (getenv("X_DBG")) {
-    double rs = 0; { CorrelativeMatch r2 = m.correlative->match(query.points, search, 0.0, &best.pose, kRivalXy, kRivalYaw); rs = r2.score; }
-    fprintf(stderr, "LC submap %d travel %.1f dist %.1f win %.2f/%.1f best %.3f rival %.3f final %.3f pts %zu shift %.2f %.2f %.1f\n", index, query.travel, distance, xy, yaw*57.3, best.score, rs, score, query.points.size(),
-      refined.pose.x - search.center.x, refined.pose.y - search.center.y, (refined.pose.yaw - search.center.yaw)*57.3);
-  }
   return LoopClosure{index, refined.pose, score, rival.found ? rival.score : 0.0};
 }
 
