@@ -106,10 +106,11 @@ int main(int argc, char** argv) {
             p.stale = v["stale"] == "True";
             p.attempts = v["attempts"];
             p.why = s.message;
-            if (p.first_try < 0 && std::atoi(v["attempts"].c_str()) > 0)
+            const int tries = std::atoi(p.attempts.c_str());
+            if (p.first_try < 0 && tries > 0)
               p.first_try = std::stod(v["last_estimate_time"]) - std::stod(v["first_map_time"]);
             if (!p.accepted && p.tries_to_accept == 0 && s.message != "not accepted: ") p.last_rejection = s.message;
-            if (p.accepted && !was_accepted && p.tries_to_accept == 0) p.tries_to_accept = std::atoi(v["attempts"].c_str());
+            if (p.accepted && !was_accepted && p.tries_to_accept == 0) p.tries_to_accept = tries;
             if (p.accepted) {
               p.delay = std::stod(v["accepted_since"]) - std::stod(v["first_map_time"]);
               p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
@@ -118,14 +119,12 @@ int main(int argc, char** argv) {
           }
         }));
   }
-  std::map<std::string, double> share_bytes;
   std::map<std::string, uint32_t> share_version;
   std::map<std::string, std::vector<std::pair<double, double>>> share_log;  // (bag s, bytes) per robot
   subs.push_back(nh.subscribe<mrslam::CompressedMapShare>("/mrslam/map_share_z", 100, [&](const mrslam::CompressedMapShare::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex);
     if (m->version <= share_version[m->robot_id]) return;  // a keyframe: the same map again
     share_version[m->robot_id] = m->version;
-    share_bytes[m->robot_id] += ros::serialization::serializationLength(*m);
     share_log[m->robot_id].emplace_back(ros::Time::now().toSec(), ros::serialization::serializationLength(*m));
   }));
   ros::AsyncSpinner spinner(2);
@@ -166,10 +165,11 @@ int main(int argc, char** argv) {
     const auto e = mrslam::bench::peerFrameError(value.pose, *world[key.first], *world[peer], tracks[peer]);
     const double cells = e.metres / 0.05;  // map_resolution in config/robot.yaml
     const bool right = e.yaw_deg <= 1.0 && cells <= 2.0;
-    // The truth is only as good as the two robots' fits to the reference: an error within twice
-    // their combined residual cannot be told from a perfect estimate (the bar of
-    // MergeRegressions and of the multi-run truth in bench_merge).
-    const double truth_bar = std::max(2.0, 2.0 * std::hypot(rms[key.first], rms[peer]) / 0.05);
+    // The truth is only as good as the two robots' fits to the reference (their drift): an
+    // error within twice their combined residual cannot be told from a perfect estimate (the
+    // bar of MergeRegressions and of the multi-run truth in bench_merge).
+    const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
+    const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
     std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d deg=%.2f cells=%.2f truth_bar_cells=%.2f "
                 "first_try_s=%.1f tries=%d before=%s\n", key.first, key.second.c_str(), value.delay, right ? 1 : 0,
                 value.stale ? 1 : 0, e.yaw_deg, cells, truth_bar, value.first_try, value.tries_to_accept,
@@ -177,21 +177,24 @@ int main(int argc, char** argv) {
     if (right) {
       ++correct;
     } else {
-      // The truth is only as good as the two robots' fits to the reference (their drift).
-      // Both poses too, so the pair can be replayed offline on the saved maps (scripts/bench_multi).
+      // With both poses, so the pair can be replayed offline on the saved maps (scripts/bench_multi).
       std::printf("outside robot%d <- %s: %.2f deg, %.2f cells (truth fit rms of the two robots: %.2f cells%s)"
                   " estimate %.3f %.3f %.4f truth %.3f %.3f %.4f\n",
-                  key.first, key.second.c_str(), e.yaw_deg, cells, std::hypot(rms[key.first], rms[peer]) / 0.05,
+                  key.first, key.second.c_str(), e.yaw_deg, cells, fit_rms_cells,
                   value.current ? "" : "; estimate made on older maps", value.pose.x, value.pose.y, value.pose.yaw,
                   e.truth.x, e.truth.y, e.truth.yaw);
     }
   }
   std::sort(delays.begin(), delays.end());
-  if (last_clock > first_clock && !share_bytes.empty()) {
+  if (last_clock > first_clock && !share_log.empty()) {
     double sum = 0, most = 0;
-    for (const auto& [id, bytes] : share_bytes) sum += bytes, most = std::max(most, bytes);
+    for (const auto& [id, sends] : share_log) {
+      double bytes = 0;
+      for (const auto& send : sends) bytes += send.second;
+      sum += bytes, most = std::max(most, bytes);
+    }
     const double sim = last_clock - first_clock;
-    std::printf("share_kb_per_s mean=%.1f max=%.1f peak_10s=%.1f\n", sum / share_bytes.size() / sim / 1000,
+    std::printf("share_kb_per_s mean=%.1f max=%.1f peak_10s=%.1f\n", sum / share_log.size() / sim / 1000,
                 most / sim / 1000, peakRate(share_log, 10.0) / 1000);
   }
   std::printf("pairs_seen=%d pairs_accepted=%d of_possible=%d\n", total, accepted, robots * (robots - 1));

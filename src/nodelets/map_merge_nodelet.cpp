@@ -152,7 +152,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!config_problem_.empty() || now - last_reconnect_ < stale_after_) return;
       for (const auto& [id, peer] : registry_->peers())
-        if (now - owners_[id].lastHeard() > stale_after_) silent += (silent.empty() ? "" : ", ") + id;
+        if (silentFor(id, now) > stale_after_) silent += (silent.empty() ? "" : ", ") + id;
       if (silent.empty()) return;
       last_reconnect_ = now;
       ++share_reconnects_;
@@ -163,6 +163,9 @@ class MapMergeNodelet : public nodelet::Nodelet {
     compressed_share_sub_.shutdown();
     subscribeShares();
   }
+
+  // Wall seconds since the peer's last share (mutex_ held).
+  double silentFor(const std::string& id, double now) { return now - owners_[id].lastHeard(); }
 
   void onOwnMap(const nav_msgs::OccupancyGrid::ConstPtr& map) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -491,7 +494,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       s.add("version", peer.version);
       // A robot re-sends an unchanged map every share_keyframe_period: silence beyond
       // stale_after means its link (or the robot) is down. Its last estimate stays in use.
-      const double silent = ros::WallTime::now().toSec() - owners_[id].lastHeard();
+      const double silent = silentFor(id, ros::WallTime::now().toSec());
       s.add("heard_s_ago", silent);
       s.add("stale", silent > stale_after_);
       array->status.push_back(s);
