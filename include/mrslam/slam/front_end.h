@@ -32,10 +32,18 @@ struct SeedParams {
   double window_sigmas = 3.0;    // the window spans this many predicted sigmas either way...
   double max_xy = 1.0;           // m: ...at most this far
   double max_yaw = 0.52;         // rad: ...and this much turn (30 degrees)
-  double min_score = 0.3;        // a seed scoring less is not used (ICP starts from the prediction)
-  double penalty_gain = 0.05;    // prior around the prediction: a pose k predicted sigmas away
-  double min_penalty = 0.5;      // scores x max(min_penalty, 1 - gain k^2), so where the scan
+  double min_score = 0.2;        // a seed scoring less is not used (ICP starts from the prediction)
+  double penalty_gain = 0.05;    // prior around the prediction: a pose k prior sigmas away
+  double min_penalty = 0.7;      // scores x max(min_penalty, 1 - gain k^2), so where the scan
                                  // cannot tell (along a corridor) the prediction wins
+  // The prior's sigmas: how far odometry itself typically errs over the increment, not the
+  // EKF's motion noise (generous on purpose, so that its gate keeps good matches, and so wide
+  // after a few metres that it would weigh nothing).
+  double prior_sigma_xy = 0.05;          // m, plus...
+  double prior_sigma_xy_per_m = 0.1;     // ...per m driven
+  double prior_sigma_yaw = 0.035;        // rad, plus...
+  double prior_sigma_yaw_per_m = 0.05;   // ...per m driven, plus...
+  double prior_sigma_yaw_per_rad = 0.1;  // ...per rad turned
   double jump_margin = 0.15;     // a doubted increment is judged a jump (no motion) only when the
                                  // scan scores this much higher there than where odometry says
   double slip_margin = 0.1;      // a match the EKF gate refuses is still taken when the scan

@@ -36,6 +36,8 @@ class LocalTracker {
   CorrelativeMatch seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw, double sigma_xy,
                              double sigma_yaw);
   bool doubted(const Pose2D& increment, double stamp) const;
+  // The sigmas (x: in x and y, yaw) of the seed's prior: how far odometry errs over `increment`.
+  Pose2D seedPrior(const Pose2D& increment) const;
   // Whether ICP, weak on its own, landed where the seed put the scan.
   bool seedConfirms(const ScanStep& step) const;
   // Whether the scan fits the local map clearly better at `match` than at `prediction`.

@@ -55,6 +55,13 @@ CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& ce
   return seed_matcher_->match(points, window, params_.seed.min_score);
 }
 
+Pose2D LocalTracker::seedPrior(const Pose2D& increment) const {
+  const SeedParams& sp = params_.seed;
+  const double driven = std::hypot(increment.x, increment.y);
+  return {sp.prior_sigma_xy + sp.prior_sigma_xy_per_m * driven, 0.0,
+          sp.prior_sigma_yaw + sp.prior_sigma_yaw_per_m * driven + sp.prior_sigma_yaw_per_rad * std::abs(increment.yaw)};
+}
+
 bool LocalTracker::seedConfirms(const ScanStep& step) const {
   const SeedParams& sp = params_.seed;
   const Pose2D moved = step.seed.inverse().compose(step.match.pose);
@@ -107,10 +114,11 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), sp.resolution);
       const double xy = step.odometry_doubted ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
       const double yaw = step.odometry_doubted ? sp.max_yaw : std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw);
-      CorrelativeMatch seed = seedMatch(points, guess, xy, yaw, sigma_xy, sigma_yaw);
+      const Pose2D prior = seedPrior(u);
+      CorrelativeMatch seed = seedMatch(points, guess, xy, yaw, prior.x, prior.yaw);
       if (step.odometry_doubted) {
         const Pose2D still{before.x, before.y, Pose2D::normalizeAngle(before.yaw + turned)};
-        const CorrelativeMatch at_rest = seedMatch(points, still, xy, yaw, sigma_xy, sigma_yaw);
+        const CorrelativeMatch at_rest = seedMatch(points, still, xy, yaw, prior.x, prior.yaw);
         // Odometry is data: the robot stood still only when the scan clearly says so (along a
         // corridor both hypotheses find a pose that fits about as well).
         if (at_rest.found && (!seed.found || at_rest.score > seed.score + sp.jump_margin)) {
