@@ -22,6 +22,8 @@ struct PoseGraphEdge {
   Pose2D measurement;  // pose of `to` in the frame of `from`
   Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
   bool loop_closure = false;  // robust loss; may be found wrong and dropped
+  double drift_factor = 1.0;  // a tracker edge drifts as much as this many times its length
+                              // would (graphDistances): > 1 through a poorly matched stretch
 };
 
 struct PoseGraphSolverParams {
@@ -55,9 +57,10 @@ Eigen::Vector3d edgeError(const std::vector<Pose2D>& poses, const PoseGraphEdge&
 double edgeChi2(const std::vector<Pose2D>& poses, const PoseGraphEdge& edge);
 
 // How far every node is from `source` through the graph (Dijkstra): a tracker edge counts the
-// distance it travelled, a loop closure `loop_length`; infinity beyond `cutoff`. Drift grows
-// with the distance travelled between two poses, so this stands in for their relative
-// uncertainty where the graph's own covariance would be too costly to compute per node.
+// distance it travelled times its drift_factor, a loop closure `loop_length`; infinity beyond
+// `cutoff`. Drift grows with the distance travelled between two poses, so this stands in for
+// their relative uncertainty where the graph's own covariance would be too costly to compute
+// per node.
 std::vector<double> graphDistances(int nodes, const std::vector<PoseGraphEdge>& edges, int source, double loop_length,
                                    double cutoff);
 

@@ -198,6 +198,9 @@ PoseGraphEdge GraphSlam::odometryEdge(int from, int to, bool weak) const {
   const double syaw = scale * (g.odometry_sigma_yaw + g.odometry_sigma_yaw_per_m * d + g.odometry_sigma_yaw_per_rad * turn);
   PoseGraphEdge e;
   e.from = from, e.to = to, e.measurement = motion;
+  // Loop-closure windows through such a stretch grow as fast as its sigmas: after a lost
+  // track, closures can reach the pose where the scans really were.
+  e.drift_factor = scale;
   e.information = Eigen::Vector3d(1 / (sxy * sxy), 1 / (sxy * sxy), 1 / (syaw * syaw)).asDiagonal();
   return e;
 }

@@ -95,7 +95,7 @@ std::vector<double> graphDistances(int nodes, const std::vector<PoseGraphEdge>& 
   std::vector<std::vector<std::pair<int, double>>> adjacent(distance.size());
   for (const PoseGraphEdge& e : edges) {
     if (e.from < 0 || e.to < 0 || e.from >= nodes || e.to >= nodes) continue;
-    const double length = e.loop_closure ? loop_length : std::hypot(e.measurement.x, e.measurement.y);
+    const double length = e.loop_closure ? loop_length : e.drift_factor * std::hypot(e.measurement.x, e.measurement.y);
     adjacent[e.from].emplace_back(e.to, length);
     adjacent[e.to].emplace_back(e.from, length);
   }
