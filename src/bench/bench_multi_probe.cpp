@@ -8,8 +8,9 @@
 // the bag's clock: mean over robots, the busiest robot's mean, and the most any robot sent in
 // 10 s of the bag's clock. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
 // (accepted, delay, correct, stale: as the last status said; when not accepted, the merger's
-// attempts and its last reason; when accepted, what led there: the first try's delay, the tries
-// up to the accept and the last rejection's reason).
+// attempts and its last reason; when accepted, what led there: when the merger stamped the
+// peer's first map on its own clock, the first try's delay, the tries up to the accept and the
+// last rejection's reason).
 // The clock it reads is /clock (remap it to follow one robot's clock).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -44,6 +45,7 @@ struct PairStatus {
   // first try, the merger's tries up to the accept, and the last reason it rejected before.
   double first_try = -1;
   int tries_to_accept = 0;
+  double first_map_time = -1;  // the merger's stamp of the peer's first map (its clock, s)
   std::string last_rejection;
 };
 // The most bytes per second any one robot sent over any `window` seconds of the bag's clock.
@@ -107,6 +109,7 @@ int main(int argc, char** argv) {
             p.attempts = v["attempts"];
             p.why = s.message;
             const int tries = std::atoi(p.attempts.c_str());
+            p.first_map_time = std::stod(v["first_map_time"]);
             if (p.first_try < 0 && tries > 0)
               p.first_try = std::stod(v["last_estimate_time"]) - std::stod(v["first_map_time"]);
             if (!p.accepted && p.tries_to_accept == 0 && s.message != "not accepted: ") p.last_rejection = s.message;
@@ -171,9 +174,9 @@ int main(int argc, char** argv) {
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
     std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d deg=%.2f cells=%.2f truth_bar_cells=%.2f "
-                "first_try_s=%.1f tries=%d before=%s\n", key.first, key.second.c_str(), value.delay, right ? 1 : 0,
-                value.stale ? 1 : 0, e.yaw_deg, cells, truth_bar, value.first_try, value.tries_to_accept,
-                value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
+                "first_map_s=%.1f first_try_s=%.1f tries=%d before=%s\n", key.first, key.second.c_str(), value.delay,
+                right ? 1 : 0, value.stale ? 1 : 0, e.yaw_deg, cells, truth_bar, value.first_map_time, value.first_try,
+                value.tries_to_accept, value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
     if (right) {
       ++correct;
     } else {

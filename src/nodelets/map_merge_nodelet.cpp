@@ -324,7 +324,11 @@ class MapMergeNodelet : public nodelet::Nodelet {
     Inbox in;
     if (own_dirty_) in.own = own_msg_;
     own_dirty_ = false;
-    in.shares.swap(pending_);
+    // A peer's map is stamped with our clock when it is admitted (first_map_time and every
+    // delay after it). Under sim time our clock reads 0 until our own bag or driver starts it,
+    // and a robot switched on after its peers hears their maps before that: those maps wait
+    // here (the newest of each peer), so that no peer is ever first seen at time 0.
+    if (!ros::Time::now().isZero()) in.shares.swap(pending_);
     return in;
   }
 
