@@ -18,9 +18,14 @@ def main(results_dir: str, runner_status: int) -> int:
             failed += 1
             continue
         for case in root.iter("testcase"):
-            if case.find("failure") is not None or case.find("error") is not None:
+            problem = case.find("failure") if case.find("failure") is not None else case.find("error")
+            if problem is not None:
                 failed += 1
                 print(f"FAILED: {case.get('classname')}.{case.get('name')}")
+                # What the test said, so that a CI log names the failed check (first lines only).
+                said = (problem.get("message") or problem.text or "").strip().splitlines()
+                for line in said[:12]:
+                    print(f"    {line[:300]}")
             elif case.find("skipped") is not None:
                 # Never silently: the reason is printed above the summary line.
                 print(f"SKIPPED: {case.get('classname')}.{case.get('name')}: {case.find('skipped').get('message', '')}")

@@ -51,6 +51,7 @@ struct PeerStatus {
   int version = 0;
   bool current = false;  // the estimate describes both maps as they are now
   bool stale = false;    // nothing heard from the peer for stale_after
+  std::string why;       // the merger's message: its last verdict
 };
 
 struct Robot : mrslam::bench::RobotTrack {
@@ -154,6 +155,7 @@ class MultiRobotTest : public ::testing::Test {
             p.version = std::stoi(v["version"]);
             p.current = v["estimate_current"] == "True";
             p.stale = v["stale"] == "True";
+            p.why = status.message;
             peers[status.name] = p;
           }
         }));
@@ -329,14 +331,16 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
         if (n != m && !(robots[n].peers.count(m) && robots[n].peers[m].accepted && robots[n].peers[m].current))
           settled = false;
   }
-  EXPECT_TRUE(settled) << "the bag did not end, or not every estimate came to describe the final maps";
   if (!settled) {
+    std::string pairs;  // in the failure's message, so that a CI log says which pair held it up
     std::lock_guard<std::mutex> lock(mutex);
     for (const auto& n : names)
       for (const auto& m : names)
         if (n != m)
-          std::printf("%s <- %s: known %d accepted %d current %d\n", n.c_str(), m.c_str(), static_cast<int>(robots[n].peers.count(m)),
-                      robots[n].peers[m].accepted, robots[n].peers[m].current);
+          pairs += "\n" + n + " <- " + m + ": known " + std::to_string(robots[n].peers.count(m)) + " accepted " +
+                   std::to_string(robots[n].peers[m].accepted) + " current " + std::to_string(robots[n].peers[m].current) +
+                   " (" + robots[n].peers[m].why + ")";
+    ADD_FAILURE() << "the bag did not end, or not every estimate came to describe the final maps" << pairs;
   }
 
   // A peer joins late, then restarts (its version counter starts again).

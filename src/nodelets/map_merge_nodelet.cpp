@@ -482,8 +482,12 @@ class MapMergeNodelet : public nodelet::Nodelet {
       diagnostic_updater::DiagnosticStatusWrapper s;
       s.name = id;
       s.hardware_id = robot_id_;
-      s.summary(peer.accepted ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
-                peer.accepted ? "accepted" : "not accepted: " + peer.last_attempt.reason);
+      // A held transform whose latest re-estimate was rejected says so (it is not current).
+      const std::string message = !peer.accepted                  ? "not accepted: " + peer.last_attempt.reason
+                                  : peer.last_attempt.accepted ? std::string("accepted")
+                                                               : "accepted (held; the last re-estimate was not: " +
+                                                                     peer.last_attempt.reason + ")";
+      s.summary(peer.accepted ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN, message);
       s.add("accepted", peer.accepted.has_value());
       const PeerEstimateView e = view(peer);
       s.add("x", e.x);
