@@ -93,6 +93,25 @@ TEST(MapFusion, AlignsMapsOfTwoTimeWindowsOfARealLog) {
   expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }
 
+TEST(MapFusion, AHeldPoseIsConfirmedOnlyWhereTheMapsStillSupportIt) {
+  // The Intel windows above, with a search that proposes nothing (no rotation candidates, no
+  // segments, no finer retry): only the held pose, the merger's current transform, can be the
+  // answer. Near the truth (1.5 cells and half a degree off, as after the maps grew) it is
+  // tracked back and verified like any final; 3 m off it explains nothing and is rejected.
+  const Pose2D truth{-12.0, 31.0, -71.0 * kDeg};
+  const WindowPair maps = windowPair("intel-corrected.log.gz", 0, 450, 350, 910, truth, 1);
+  FusionParams blind;
+  blind.rotation_candidates = 0;
+  blind.use_segments = false;
+  blind.retry_finer = 0;
+  EXPECT_FALSE(alignMaps(maps.a, maps.b, blind).accepted);
+  const Pose2D near = truth.compose(Pose2D{0.05, -0.05, 0.5 * kDeg});
+  const FusionResult confirmed = alignMaps(maps.a, maps.b, blind, near);
+  expectCorrect(confirmed, maps.b, truth);
+  const FusionResult wrong = alignMaps(maps.a, maps.b, blind, truth.compose(Pose2D{3.0, 0.0, 0.0}));
+  EXPECT_FALSE(wrong.accepted) << "a held pose 3 m off was confirmed";
+}
+
 TEST(MapFusion, SearchesFinerWhenTheCoarseSearchFindsNoOverlap) {
   // Two windows of the real Freiburg 079 log (long corridors, B turned by 90 degrees), with
   // the benchmark's drift: the global rotation candidate is 2 degrees off, at the coarse level

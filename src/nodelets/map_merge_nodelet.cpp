@@ -34,6 +34,7 @@
 #include <condition_variable>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "mrslam/fusion/fusion_params_io.h"
@@ -396,6 +397,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     std::shared_ptr<const OccupancyGrid> own, peer_map;
     std::string peer_id;
     fusion::MapSummary own_summary;
+    std::optional<Pose2D> held;  // the transform we hold: the search verifies it again too
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!own_grid_) return;
@@ -403,7 +405,9 @@ class MapMergeNodelet : public nodelet::Nodelet {
       own_summary = own_summary_;
       if (auto next = registry_->nextToEstimate(own_summary, ros::WallTime::now().toSec())) {
         peer_id = *next;
-        peer_map = registry_->peers().at(peer_id).map;
+        const fusion::Peer& peer = registry_->peers().at(peer_id);
+        peer_map = peer.map;
+        if (peer.accepted) held = peer.accepted->pose;
       } else {
         if (!registry_->peers().empty() && (ros::WallTime::now() - last_status_).toSec() >= 1.0)
           publishStatus();  // once a second without news: whether each estimate is still current
@@ -420,7 +424,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     }
     fusion::FusionResult result;
     try {
-      result = fusion::alignMaps(*own, *peer_map, fusion_params_);
+      result = fusion::alignMaps(*own, *peer_map, fusion_params_, held);
     } catch (const std::exception& e) {
       forgetPeer(peer_id, std::string("fusion failed: ") + e.what());
       return;

@@ -16,6 +16,7 @@
 //   - verification adds wall agreement and a minimum shared wall length to V and entropy.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -82,6 +83,8 @@ struct FusionResult {
 // Pose of B's map frame in A's map frame from a transform in A's cells (B resampled to A's
 // resolution): origin_A o (R(theta), resolution_A * t) o origin_B^-1.
 Pose2D poseFromCells(const OccupancyGrid& a, const OccupancyGrid& b, const CellTransform& cells);
+// The inverse of poseFromCells.
+CellTransform cellsFromPose(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2D& pose);
 
 // Why a grid cannot take part in fusion (empty string if it can): invalid structure, no
 // known cells, or no obstacle edges.
@@ -104,6 +107,11 @@ std::string fusionInputProblem(const OccupancyGrid& a, const OccupancyGrid& b, c
 // the coarse level); a pose rejected for any other reason (ambiguity, V, entropy) is final.
 // The answer is the best-scoring final pose that passes the checks on its own counts; poses
 // that fail them are neither the answer nor rivals in the ambiguity check.
-FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params);
+// `held`: a pose of B's frame accepted earlier (the merger's current transform). It joins the
+// search's finals at full resolution and is ranked and verified exactly like them, so a
+// re-estimate on grown maps still confirms it when the coarse search happens to miss it, and
+// never accepts it when the grown maps contradict it.
+FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params,
+                       const std::optional<Pose2D>& held = std::nullopt);
 
 }  // namespace mrslam::fusion

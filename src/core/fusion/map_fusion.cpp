@@ -77,6 +77,11 @@ Pose2D poseFromCells(const OccupancyGrid& a, const OccupancyGrid& b, const CellT
   return a.origin.compose(metric).compose(b.origin.inverse());
 }
 
+CellTransform cellsFromPose(const OccupancyGrid& a, const OccupancyGrid& b, const Pose2D& pose) {
+  const Pose2D metric = a.origin.inverse().compose(pose).compose(b.origin);
+  return {metric.yaw, {metric.x / a.resolution, metric.y / a.resolution}};
+}
+
 std::string checkFusable(const OccupancyGrid& grid, const FusionParams& params) {
   std::string why = validateGrid(grid);
   if (!why.empty()) return why;
@@ -294,7 +299,16 @@ double ambiguity(const std::vector<SearchResult>& finals, double resolution, con
   return worst;
 }
 
-FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
+// The held pose as one more final: searched in a window of the finest level's size, so that it
+// follows maps that grew a little since it was accepted, then treated like the search's finals.
+void addHeldPose(const Images& im, const SimilarityIndex& full, const FusionParams& params, const CellTransform& held,
+                 std::vector<SearchResult>& finals) {
+  const double step = params.coarse_rotation_step_deg * kDeg / std::pow(2.0, im.coarse);
+  finals.push_back(full.search(held, params.refine_radius, step, 1));
+}
+
+FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params,
+                             const std::optional<Pose2D>& held) {
   FusionResult result;
   StageClock clock(result);
   const Images im = prepareImages(a, b, params);
@@ -320,6 +334,7 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
   const SimilarityIndex& full = finest ? *finest : coarse_index;
   if (!finest)
     for (SearchResult& f : finals) f.counts = full.evaluate(f.transform);
+  if (held) addHeldPose(im, full, params, cellsFromPose(a, b, *held), finals);
   if (params.chamfer_polish && finest) polish(im, full, params, finals);
 
   const double smaller_walls =
@@ -366,11 +381,12 @@ std::string fusionInputProblem(const OccupancyGrid& a, const OccupancyGrid& b, c
   return why_b.empty() || why_b.rfind("resolutions", 0) == 0 ? why_b : "map B: " + why_b;
 }
 
-FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params) {
+FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params,
+                       const std::optional<Pose2D>& held) {
   const std::string problem = fusionInputProblem(a, b, params);
   if (!problem.empty()) throw std::invalid_argument(problem);
   const double ratio = b.resolution / a.resolution;
-  FusionResult result = searchAndVerify(a, b, params);
+  FusionResult result = searchAndVerify(a, b, params, held);
   if (result.accepted || !result.verdict.no_overlap_found || params.retry_finer < 1) return result;
   // Nothing found: once more with finer coarse and Fourier levels and more rotation candidates
   // (about 4x the time), if the maps are large enough for that to change anything.
@@ -381,7 +397,7 @@ FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const Fus
   const int longest = std::max({a.width, a.height, static_cast<int>(std::lround(b.width * ratio)),
                                 static_cast<int>(std::lround(b.height * ratio))});
   if (longest <= params.coarse_max_cells) return result;  // already searched at full resolution
-  FusionResult retry = searchAndVerify(a, b, finer);
+  FusionResult retry = searchAndVerify(a, b, finer, held);
   retry.time_ms += result.time_ms;
   retry.hypotheses += result.hypotheses;
   double first_ms = 0;
