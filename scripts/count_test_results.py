@@ -18,7 +18,9 @@ def main(results_dir: str, runner_status: int) -> int:
             failed += 1
             continue
         for case in root.iter("testcase"):
-            problem = case.find("failure") if case.find("failure") is not None else case.find("error")
+            problem = case.find("failure")
+            if problem is None:
+                problem = case.find("error")
             if problem is not None:
                 failed += 1
                 print(f"FAILED: {case.get('classname')}.{case.get('name')}")

@@ -110,12 +110,11 @@ int main(int argc, char** argv) {
             p.why = s.message;
             const int tries = std::atoi(p.attempts.c_str());
             p.first_map_time = std::stod(v["first_map_time"]);
-            if (p.first_try < 0 && tries > 0)
-              p.first_try = std::stod(v["last_estimate_time"]) - std::stod(v["first_map_time"]);
+            if (p.first_try < 0 && tries > 0) p.first_try = std::stod(v["last_estimate_time"]) - p.first_map_time;
             if (!p.accepted && p.tries_to_accept == 0 && s.message != "not accepted: ") p.last_rejection = s.message;
             if (p.accepted && !was_accepted && p.tries_to_accept == 0) p.tries_to_accept = tries;
             if (p.accepted) {
-              p.delay = std::stod(v["accepted_since"]) - std::stod(v["first_map_time"]);
+              p.delay = std::stod(v["accepted_since"]) - p.first_map_time;
               p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
               p.current = v["estimate_current"] == "True";
             }

@@ -486,12 +486,8 @@ class MapMergeNodelet : public nodelet::Nodelet {
       diagnostic_updater::DiagnosticStatusWrapper s;
       s.name = id;
       s.hardware_id = robot_id_;
-      // A held transform whose latest re-estimate was rejected says so (it is not current).
-      const std::string message = !peer.accepted                  ? "not accepted: " + peer.last_attempt.reason
-                                  : peer.last_attempt.accepted ? std::string("accepted")
-                                                               : "accepted (held; the last re-estimate was not: " +
-                                                                     peer.last_attempt.reason + ")";
-      s.summary(peer.accepted ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN, message);
+      s.summary(peer.accepted ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
+                verdictOf(peer));
       s.add("accepted", peer.accepted.has_value());
       const PeerEstimateView e = view(peer);
       s.add("x", e.x);
@@ -513,6 +509,14 @@ class MapMergeNodelet : public nodelet::Nodelet {
     }
     status_pub_.publish(diagnostic_msgs::DiagnosticArray::ConstPtr(array));
     last_status_ = ros::WallTime::now();
+  }
+
+  // The status message: a held transform whose latest re-estimate was rejected says so (it is
+  // not current).
+  static std::string verdictOf(const fusion::Peer& peer) {
+    if (!peer.accepted) return "not accepted: " + peer.last_attempt.reason;
+    if (peer.last_attempt.accepted) return "accepted";
+    return "accepted (held; the last re-estimate was not: " + peer.last_attempt.reason + ")";
   }
 
   struct PeerEstimateView {
