@@ -314,6 +314,25 @@ TEST(SlamLogCli, RunsARealLogAndRejectsBadInputWithExitTwo) {
   EXPECT_NE(window.output.find("--window 5:1"), std::string::npos) << window.output;
 }
 
+// A slower scanner from a real log, every phase of the decimation; bad options refused.
+TEST(ConvertLogCli, WritesEveryPhaseOfADecimationAndRefusesBadOptions) {
+  const std::string bin = MRSLAM_CONVERT_LOG_BIN;
+  const std::string dir = ::testing::TempDir();
+  const std::string in = test::dataPath("logs/carmen_corrected/aces-corrected.log.gz");
+  const auto ok = test::runCommand(bin + " " + in + " " + dir + "/aces5.log --every 5 --phase 4");
+  ASSERT_EQ(ok.status, 0) << ok.output;
+  const slam::RobotLog full = slam::readRobotLog(in), phase4 = slam::readRobotLog(dir + "/aces5.log");
+  ASSERT_EQ(phase4.records.size(), (full.records.size() - 4 + 4) / 5);
+  EXPECT_EQ(phase4.records[2].scan.ranges.size(), full.records[14].scan.ranges.size());
+  EXPECT_NEAR(phase4.records[2].reference.x, full.records[14].reference.x, 1e-5);
+  for (const std::string bad : {"--every 5 --phase 5", "--every 3 --phase -1", "--phase x", "--every 0"}) {
+    const auto refused = test::runCommand(bin + " " + in + " " + dir + "/bad.log " + bad);
+    EXPECT_EQ(refused.status, 2) << bad << ": " << refused.output;
+    EXPECT_NE(refused.output.find("mrslam_convert_log: "), std::string::npos) << refused.output;
+  }
+  std::remove((dir + "/aces5.log").c_str());
+}
+
 // Inputs that once gave quiet partial results, garbage or a crash (issue 15), each refused
 // with one line naming the file, or reported and exit 3 unless --allow-partial.
 TEST(SlamLogCli, PartialAndMalformedInputIsReportedNotQuietlyUsed) {

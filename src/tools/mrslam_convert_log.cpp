@@ -1,10 +1,10 @@
 // mrslam_convert_log: a robot log as mrslam reads it, written again, for benchmarks that feed
 // other tools the same data (MRPT's icp-slam and rbpf-slam read rawlogs) or a slower scanner.
 //
-//   mrslam_convert_log IN OUT [--every K]
+//   mrslam_convert_log IN OUT [--every K [--phase P]]
 //
 // IN: any log mrslam_slam_log reads. OUT: .log (CARMEN text) or .rawlog (MRPT). --every K keeps
-// every K-th scan, the odometry of the dropped ones chained into the next kept scan (the raw
+// every K-th scan (from scan P on, 0 <= P < K), the odometry of the dropped ones chained into the next kept scan (the raw
 // odometry's error stays that of the full log). Exit 2 on bad input or a failed write.
 #include <iostream>
 #include <string>
@@ -22,19 +22,21 @@ bool endsWith(const std::string& s, const std::string& tail) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string usage = "usage: mrslam_convert_log IN OUT.{log,rawlog} [--every K]";
+  const std::string usage = "usage: mrslam_convert_log IN OUT.{log,rawlog} [--every K [--phase P]]";
   std::string in, out;
-  int every = 1;
+  int every = 1, phase = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--every") {
-      if (i + 1 >= argc) return fail("--every needs a number\n" + usage);
+    if (a == "--every" || a == "--phase") {
+      if (i + 1 >= argc) return fail(a + " needs a number\n" + usage);
+      int& value = a == "--every" ? every : phase;
+      const int least = a == "--every" ? 1 : 0;
       try {
         size_t used = 0;
-        every = std::stoi(argv[++i], &used);
-        if (used != std::string(argv[i]).size() || every < 1) throw std::invalid_argument("");
+        value = std::stoi(argv[++i], &used);
+        if (used != std::string(argv[i]).size() || value < least) throw std::invalid_argument("");
       } catch (...) {
-        return fail("--every needs a whole number >= 1, got '" + std::string(argv[i]) + "'");
+        return fail(a + " needs a whole number >= " + std::to_string(least) + ", got '" + std::string(argv[i]) + "'");
       }
     } else if (a == "-h" || a == "--help") {
       std::cout << usage << "\n";
@@ -50,11 +52,12 @@ int main(int argc, char** argv) {
     }
   }
   if (in.empty() || out.empty()) return fail("missing arguments\n" + usage);
+  if (phase >= every) return fail("--phase must be below --every (" + std::to_string(every) + ")");
   if (!endsWith(out, ".log") && !endsWith(out, ".rawlog")) return fail(out + ": output must end in .log or .rawlog");
   try {
     mrslam::slam::RobotLog log = mrslam::slam::readRobotLog(in);
     for (const auto& w : log.warnings) std::cerr << "warning: " << w << "\n";
-    if (every > 1) log = mrslam::slam::decimate(log, every);
+    if (every > 1) log = mrslam::slam::decimate(log, every, phase);
     if (endsWith(out, ".log")) mrslam::slam::writeCarmenLog(log, out);
     else mrslam::slam::writeMrptRawlog(log, out);
   } catch (const std::exception& e) {

@@ -1,6 +1,7 @@
 // Writing robot logs, for benchmarks that feed other tools the very data mrslam reads:
-//   - decimate(): the same log at a slower scan rate (every k-th scan), the odometry of the
-//     dropped scans chained into the next kept one, so the raw odometry's error is that of the
+//   - decimate(): the same log at a slower scan rate (every k-th scan from scan `phase` on:
+//     k phases give k different slow logs of one run), the odometry of the dropped scans
+//     chained into the next kept one, so the raw odometry's error is that of the
 //     full log (the corrected CARMEN logs re-anchor odometry at every scan: dropping lines
 //     would lose motion);
 //   - writeCarmenLog(): a CARMEN text log whose ODOM lines give exactly the records' odometry
@@ -17,7 +18,7 @@
 
 namespace mrslam::slam {
 
-RobotLog decimate(const RobotLog& log, int every);
+RobotLog decimate(const RobotLog& log, int every, int phase = 0);
 void writeCarmenLog(const RobotLog& log, const std::string& path);
 void writeMrptRawlog(const RobotLog& log, const std::string& path);
 

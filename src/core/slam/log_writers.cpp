@@ -12,14 +12,15 @@
 
 namespace mrslam::slam {
 
-RobotLog decimate(const RobotLog& log, int every) {
+RobotLog decimate(const RobotLog& log, int every, int phase) {
   if (every < 1) throw LogError(log.path + ": decimation must keep every k-th scan with k >= 1");
+  if (phase < 0 || phase >= every) throw LogError(log.path + ": decimation phase must be in [0, k)");
   RobotLog out = log;
   out.records.clear();
   Pose2D since_kept;
   for (size_t k = 0; k < log.records.size(); ++k) {
     since_kept = since_kept.compose(log.records[k].odometry);
-    if (k % every != 0) continue;
+    if (k < static_cast<size_t>(phase) || (k - phase) % every != 0) continue;
     LogRecord record = log.records[k];
     record.odometry = out.records.empty() ? Pose2D{} : since_kept;
     since_kept = Pose2D{};
