@@ -11,4 +11,9 @@ inline const slam::RobotLog& intelLog() {
   return log;
 }
 
+inline const slam::RobotLog& acesLog() {
+  static const slam::RobotLog log = slam::readRobotLog(dataPath("logs/carmen_corrected/aces-corrected.log.gz"));
+  return log;
+}
+
 }  // namespace mrslam::test

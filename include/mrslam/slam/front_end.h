@@ -32,7 +32,7 @@ struct SeedParams {
   double window_sigmas = 3.0;    // the window spans this many predicted sigmas either way...
   double max_xy = 1.0;           // m: ...at most this far
   double max_yaw = 0.52;         // rad: ...and this much turn (30 degrees)
-  double min_score = 0.2;        // a seed scoring less is not used (ICP starts from the prediction)
+  double min_score = 0.1;        // a seed scoring less is not used (ICP starts from the prediction)
   double penalty_gain = 0.05;    // prior around the prediction: a pose k prior sigmas away
   double min_penalty = 0.7;      // scores x max(min_penalty, 1 - gain k^2), so where the scan
                                  // cannot tell (along a corridor) the prediction wins
@@ -54,6 +54,10 @@ struct SeedParams {
   double confirm_xy = 0.1;           // m: ICP ending this close to the seed...
   double confirm_yaw = 0.035;        // rad: ...and this (2 degrees) confirms it, and the match
   double confirmed_min_goodness = 0.1;  // stands with this much goodness (scans far apart overlap little)
+  double alone_margin = 0.1;     // a seed ICP does not confirm is the measurement when the scan scores
+                                 // this much higher there than at the prediction (0: never)...
+  double alone_sigma_xy = 0.1;   // m: ...with these standard deviations
+  double alone_sigma_yaw = 0.035;  // rad
 };
 
 // The pose graph back end (graph_slam.h).
@@ -143,6 +147,7 @@ struct ScanStep {
   bool odometry_doubted = false;  // the increment was long enough to be a jump
   bool odometry_jump = false;     // ...and the scan agreed better with no motion
   bool odometry_slipped = false;  // a gated match won on the scan's evidence
+  bool seed_alone = false;      // ICP did not confirm the seed, which still beat the prediction clearly
   bool new_node = false;        // the scan became a pose-graph node
   int loop_closures = 0;        // loop closures accepted at this scan
   bool map_moved = false;       // an optimisation moved the map
@@ -156,6 +161,7 @@ struct ScanStep {
 struct FrontEndStats {
   size_t scans = 0, used = 0, rejected = 0, matched = 0, gated = 0, seeded = 0;
   size_t odometry_doubted = 0, odometry_jumps = 0, odometry_slips = 0;
+  size_t seeds_alone = 0;  // matched by the correlative seed alone (ICP could not confirm it)
   size_t nodes = 0, submaps = 0;
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
   size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed

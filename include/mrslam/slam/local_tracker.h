@@ -41,6 +41,7 @@ class LocalTracker {
   // Whether ICP, weak on its own, landed where the seed put the scan.
   bool seedConfirms(const ScanStep& step) const;
   // Whether the scan fits the local map clearly better at `match` than at `prediction`.
+  bool seedStandsAlone(const ScanStep& step) const;
   bool scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction);
 
   RobotSlamParams params_;

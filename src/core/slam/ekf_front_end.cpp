@@ -26,6 +26,7 @@ void countStep(const ScanStep& step, FrontEndStats& stats) {
   stats.odometry_doubted += step.odometry_doubted;
   stats.odometry_jumps += step.odometry_jump;
   stats.odometry_slips += step.odometry_slipped;
+  stats.seeds_alone += step.seed_alone;
 }
 
 EkfFrontEnd::EkfFrontEnd(const RobotSlamParams& params, const Pose2D& laser_in_base)

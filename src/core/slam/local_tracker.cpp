@@ -70,6 +70,10 @@ bool LocalTracker::seedConfirms(const ScanStep& step) const {
          std::abs(moved.yaw) <= sp.confirm_yaw;
 }
 
+bool LocalTracker::seedStandsAlone(const ScanStep& step) const {
+  return params_.seed.alone_margin > 0 && step.seed_score >= step.prediction_score + params_.seed.alone_margin;
+}
+
 bool LocalTracker::scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction) {
   if (!params_.seed.enabled) return false;
   const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), params_.seed.resolution);
@@ -143,6 +147,18 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       // correlative search put the scan, two methods agree and the match stands.
       step.match.ok = true;
       step.match.reason.clear();
+    }
+    if (!step.match.ok && step.seeded && seedStandsAlone(step)) {
+      // ICP pairs too few points to confirm (scans metres apart share little), yet the scan
+      // fits the local map far better at the seed than where odometry put it: odometry erred
+      // beyond what ICP can pull back, so the seed is the measurement, at the search's
+      // resolution. Taking the prediction instead would keep odometry's error for sure.
+      step.match.pose = step.seed;
+      step.match.covariance = Eigen::Vector3d(sp.alone_sigma_xy * sp.alone_sigma_xy, sp.alone_sigma_xy * sp.alone_sigma_xy,
+                                              sp.alone_sigma_yaw * sp.alone_sigma_yaw).asDiagonal();
+      step.match.ok = true;
+      step.match.reason.clear();
+      step.seed_alone = true;
     }
     if (step.match.ok) {
       // A doubted prediction is worthless as a prior: let the match decide.
