@@ -1,5 +1,6 @@
 // mrslam_bench_multi_probe N SECONDS: watches a running multi-robot stack (robot1..robotN) for
-// SECONDS of wall time and prints, as key=value lines: the simulated time that passed (so the
+// SECONDS of wall time, or until SIGUSR1 (the harness's word that every bag has played and the
+// mergers had their time to settle), and prints, as key=value lines: the simulated time that passed (so the
 // real-time factor achieved), the poses each robot published, how many robot pairs are merged,
 // and for each merged pair the simulated time from the peer's first map to the accepted transform
 // and whether the accepted transform is correct (within 1 degree and 2 cells of the truth from
@@ -18,6 +19,9 @@
 #include <mrslam/CompressedMapShare.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
+
+#include <atomic>
+#include <csignal>
 #include <tf2/utils.h>
 
 #include <algorithm>
@@ -64,10 +68,14 @@ double peakRate(const std::map<std::string, std::vector<std::pair<double, double
 }
 }  // namespace
 
+std::atomic<bool> g_told_to_finish{false};
+void finishNow(int) { g_told_to_finish = true; }
+
 int main(int argc, char** argv) {
   ros::init(argc, argv, "mrslam_bench_multi_probe", ros::init_options::AnonymousName);
+  std::signal(SIGUSR1, finishNow);
   if (argc < 3) {
-    std::fprintf(stderr, "usage: mrslam_bench_multi_probe N SECONDS\n");
+    std::fprintf(stderr, "usage: mrslam_bench_multi_probe N SECONDS (at most; SIGUSR1 ends it sooner)\n");
     return 2;
   }
   const int robots = std::atoi(argv[1]);
@@ -132,7 +140,7 @@ int main(int argc, char** argv) {
   ros::AsyncSpinner spinner(2);
   spinner.start();
   const ros::WallTime start = ros::WallTime::now();
-  ros::WallDuration(seconds).sleep();
+  while (!g_told_to_finish && (ros::WallTime::now() - start).toSec() < seconds) ros::WallDuration(0.2).sleep();
   const double wall = (ros::WallTime::now() - start).toSec();
   std::lock_guard<std::mutex> lock(mutex);
   // The real-time factor over the time the clock was running (the bag playing).
