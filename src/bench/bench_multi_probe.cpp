@@ -19,13 +19,12 @@
 #include <mrslam/CompressedMapShare.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
-
-#include <atomic>
-#include <csignal>
 #include <tf2/utils.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <csignal>
 #include <map>
 #include <mutex>
 #include <optional>

@@ -4,8 +4,8 @@
 //   mrslam_convert_log IN OUT [--every K [--phase P]]
 //
 // IN: any log mrslam_slam_log reads. OUT: .log (CARMEN text) or .rawlog (MRPT). --every K keeps
-// every K-th scan (from scan P on, 0 <= P < K), the odometry of the dropped ones chained into the next kept scan (the raw
-// odometry's error stays that of the full log). Exit 2 on bad input or a failed write.
+// every K-th scan (from scan P on, 0 <= P < K), the odometry of the dropped ones chained into
+// the next kept scan (the raw odometry's error stays that of the full log). Exit 2 on bad input or a failed write.
 #include <iostream>
 #include <string>
 

@@ -40,8 +40,9 @@ class LocalTracker {
   Pose2D seedPrior(const Pose2D& increment) const;
   // Whether ICP, weak on its own, landed where the seed put the scan.
   bool seedConfirms(const ScanStep& step) const;
-  // Whether the scan fits the local map clearly better at `match` than at `prediction`.
+  // Whether a seed ICP did not confirm still scored clearly above the prediction.
   bool seedStandsAlone(const ScanStep& step) const;
+  // Whether the scan fits the local map clearly better at `match` than at `prediction`.
   bool scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction);
 
   RobotSlamParams params_;
