@@ -11,6 +11,11 @@ inline const slam::RobotLog& intelLog() {
   return log;
 }
 
+inline const slam::RobotLog& freiburg079Log() {
+  static const slam::RobotLog log = slam::readRobotLog(dataPath("logs/carmen_corrected/freiburg-079-corrected.log.gz"));
+  return log;
+}
+
 inline const slam::RobotLog& acesLog() {
   static const slam::RobotLog log = slam::readRobotLog(dataPath("logs/carmen_corrected/aces-corrected.log.gz"));
   return log;

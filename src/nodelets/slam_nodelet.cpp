@@ -337,6 +337,7 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("scans rejected", rejected_ + s.rejected);
     status.add("odometry jumps", s.odometry_jumps);
     status.add("odometry slips", s.odometry_slips);
+    status.add("odometry increments driven backwards", s.odometry_reversals);
     status.add("scans placed by the correlative search alone", s.seeds_alone);
     status.add("graph nodes", s.nodes);
     status.add("loop closures accepted", s.loop_accepted);

@@ -130,7 +130,7 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   out << ", " << s.matched << " matched, " << s.rejected << " rejected";
   if (!s.last_problem.empty() && s.rejected) out << " (last: " << s.last_problem << ")";
   out << "; odometry doubted " << s.odometry_doubted << ", jumps " << s.odometry_jumps << ", slips " << s.odometry_slips
-      << "; " << s.seeds_alone << " placed by the correlative search alone";
+      << ", driven backwards " << s.odometry_reversals << "; " << s.seeds_alone << " placed by the correlative search alone";
   if (robot.name() == "graph")
     out << "\nmrslam_slam_log: graph " << s.nodes << " nodes, " << s.submaps << " submaps; loop closures "
         << s.loop_accepted << " accepted of " << s.loop_attempts << " tried (rejected: " << s.loop_rejected_score

@@ -48,6 +48,12 @@ struct SeedParams {
                                  // scan scores this much higher there than where odometry says
   double slip_margin = 0.1;      // a match the EKF gate refuses is still taken when the scan
                                  // scores this much higher there than at the prediction
+  double reverse_margin = 0.15;  // the odometry's translation is taken reversed (odometry that
+                                 // reports speed without its sign) when the scan scores this
+                                 // much higher there than at the prediction (0: never)...
+  double reverse_max_distance = 1.0;  // m: ...over increments at most this long (the longer the
+                                 // increment, the more a pose inside the mapped area outscores
+                                 // one facing unmapped space along a corridor)
   double resolution = 0.05;      // m, of the likelihood grid
   double sigma = 0.05;           // m, likelihood kernel
   double icp_correspondence = 0.15;  // m: ICP after a seed pairs points this close at first
@@ -147,6 +153,7 @@ struct ScanStep {
   bool odometry_doubted = false;  // the increment was long enough to be a jump
   bool odometry_jump = false;     // ...and the scan agreed better with no motion
   bool odometry_slipped = false;  // a gated match won on the scan's evidence
+  bool odometry_reversed = false; // the robot drove the increment backwards, not forwards
   bool seed_alone = false;      // ICP did not confirm the seed, which still beat the prediction clearly
   bool new_node = false;        // the scan became a pose-graph node
   int loop_closures = 0;        // loop closures accepted at this scan
@@ -160,7 +167,7 @@ struct ScanStep {
 // What a run did, for the summary every tool prints and for diagnostics.
 struct FrontEndStats {
   size_t scans = 0, used = 0, rejected = 0, matched = 0, gated = 0, seeded = 0;
-  size_t odometry_doubted = 0, odometry_jumps = 0, odometry_slips = 0;
+  size_t odometry_doubted = 0, odometry_jumps = 0, odometry_slips = 0, odometry_reversals = 0;
   size_t seeds_alone = 0;  // matched by the correlative seed alone (ICP could not confirm it)
   size_t nodes = 0, submaps = 0;
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum

@@ -44,6 +44,9 @@ class LocalTracker {
   bool seedStandsAlone(const ScanStep& step) const;
   // Whether the scan fits the local map clearly better at `match` than at `prediction`.
   bool scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction);
+  // Where the robot is had it driven the increment `u` backwards from `before`, when the scan
+  // says so clearly; nothing otherwise.
+  std::optional<Pose2D> reversedPrediction(const LaserScan& scan, const Pose2D& before, const Pose2D& u);
 
   RobotSlamParams params_;
   Pose2D laser_in_base_;

@@ -26,6 +26,7 @@ void countStep(const ScanStep& step, FrontEndStats& stats) {
   stats.odometry_doubted += step.odometry_doubted;
   stats.odometry_jumps += step.odometry_jump;
   stats.odometry_slips += step.odometry_slipped;
+  stats.odometry_reversals += step.odometry_reversed;
   stats.seeds_alone += step.seed_alone;
 }
 

@@ -47,7 +47,7 @@ ScanStep GraphSlam::processScan(const LaserScan& scan) {
   countStep(step, stats_);
   if (!step.used) return step;
   // How much the tracker's motion since the last node can be trusted.
-  const bool weak = !step.matched || step.odometry_jump || step.odometry_slipped ||
+  const bool weak = !step.matched || step.odometry_jump || step.odometry_slipped || step.odometry_reversed ||
                     step.match.goodness < params_.graph.weak_match_goodness;
   weak_since_node_ = weak_since_node_ || weak;
   const Pose2D tracker_pose = tracker_.filter().pose();

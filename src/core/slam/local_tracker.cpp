@@ -83,6 +83,28 @@ bool LocalTracker::scanPrefers(const LaserScan& scan, const Pose2D& match, const
          grid.score(transformPoints(points, prediction)) + params_.seed.slip_margin;
 }
 
+std::optional<Pose2D> LocalTracker::reversedPrediction(const LaserScan& scan, const Pose2D& before, const Pose2D& u) {
+  const SeedParams& sp = params_.seed;
+  // Shorter increments end within the likelihood kernel of the prediction: nothing to tell.
+  const double driven = std::hypot(u.x, u.y);
+  if (!sp.enabled || sp.reverse_margin <= 0 || driven < sp.resolution || driven > sp.reverse_max_distance)
+    return std::nullopt;
+  const Pose2D forward = ekf_.pose();
+  Pose2D backward = before.compose(Pose2D{-u.x, -u.y, u.yaw});
+  backward.yaw = forward.yaw;  // the turn (and a gyro's correction of it) stands either way
+  const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), sp.resolution);
+  seedMatch(points, forward, 0, 0, 0, 0);  // makes sure the local map's grid is current
+  const LikelihoodGrid& grid = seed_matcher_->grid();
+  // Cheap test first: the full searches run only where backwards already fits better.
+  if (grid.score(transformPoints(points, backward)) <= grid.score(transformPoints(points, forward))) return std::nullopt;
+  const Pose2D prior = seedPrior(u);
+  const double xy = std::min(sp.max_xy, driven), yaw = std::min(sp.max_yaw, sp.window_sigmas * prior.yaw);
+  const CorrelativeMatch ahead = seedMatch(points, forward, xy, yaw, prior.x, prior.yaw);
+  const CorrelativeMatch behind = seedMatch(points, backward, xy, yaw, prior.x, prior.yaw);
+  if (!behind.found || behind.score <= (ahead.found ? ahead.score : 0.0) + sp.reverse_margin) return std::nullopt;
+  return backward;
+}
+
 ScanStep LocalTracker::track(const LaserScan& scan) {
   ScanStep step;
   step.reason = scanProblem(scan);
@@ -109,6 +131,14 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
   have_gyro_ = false;
 
   if (params_.use_scan_matching && !matcher_.empty()) {
+    if (scans_ > 0 && !step.odometry_doubted) {
+      // Some odometry reports speed without its sign (every backward step of the bundled
+      // CARMEN logs is written as forward motion): the scan decides the direction.
+      if (const auto backward = reversedPrediction(scan, before, u)) {
+        step.odometry_reversed = true;
+        ekf_.reset(*backward, ekf_.covariance());
+      }
+    }
     Pose2D guess = ekf_.pose();
     const SeedParams& sp = params_.seed;
     const Eigen::Matrix3d& P = ekf_.covariance();
@@ -175,7 +205,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       step.gated = !step.matched;
     }
   }
-  if (scans_ > 0 && step.matched && !step.odometry_jump && !step.odometry_slipped &&
+  if (scans_ > 0 && step.matched && !step.odometry_jump && !step.odometry_slipped && !step.odometry_reversed &&
       step.match.goodness >= params_.graph.weak_match_goodness)
     calibration_.learn(raw, before.inverse().compose(ekf_.pose()));
   matcher_.addIfKey(scan, ekf_.pose());

@@ -59,6 +59,8 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"seed_prior_sigma_yaw_per_rad", &seed.prior_sigma_yaw_per_rad},
       {"seed_jump_margin", &seed.jump_margin},
       {"seed_slip_margin", &seed.slip_margin},
+      {"seed_reverse_margin", &seed.reverse_margin},
+      {"seed_reverse_max_distance", &seed.reverse_max_distance},
       {"seed_resolution", &seed.resolution},
       {"seed_sigma", &seed.sigma},
       {"seed_icp_correspondence", &seed.icp_correspondence},
