@@ -3,7 +3,8 @@
 // Its wide basin: when the prediction is uncertain (poor odometry, scans far apart) or the
 // odometry increment is long enough to be a jump, a correlative search over a window of poses
 // seeds ICP; a doubted increment is searched around both the odometry's prediction and the
-// previous pose, and the better match decides whether the robot moved.
+// previous pose, and the better match decides whether the robot moved; an increment the scan
+// fits clearly better driven backwards is reversed (odometry that reports no sign).
 #pragma once
 
 #include <memory>
