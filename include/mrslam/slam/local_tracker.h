@@ -33,6 +33,8 @@ class LocalTracker {
   const OdometryCalibration& calibration() const { return calibration_; }
 
  private:
+  // The local map's likelihood grid, rebuilt when the local map changed.
+  const LikelihoodGrid& seedGrid();
   // The best correlative match in a window around `center`, on the local map.
   CorrelativeMatch seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw, double sigma_xy,
                              double sigma_yaw);
@@ -43,11 +45,12 @@ class LocalTracker {
   bool seedConfirms(const ScanStep& step) const;
   // Whether a seed ICP did not confirm still scored clearly above the prediction.
   bool seedStandsAlone(const ScanStep& step) const;
-  // Whether the scan fits the local map clearly better at `match` than at `prediction`.
-  bool scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction);
-  // Where the robot is had it driven the increment `u` backwards from `before`, when the scan
-  // says so clearly; nothing otherwise.
-  std::optional<Pose2D> reversedPrediction(const LaserScan& scan, const Pose2D& before, const Pose2D& u);
+  // Whether the scan's (thinned) points fit the local map clearly better at `match` than at
+  // `prediction`.
+  bool scanPrefers(const Points2& points, const Pose2D& match, const Pose2D& prediction);
+  // Where the robot is had it driven the increment `u` backwards from `before`, when the scan's
+  // (thinned) points say so clearly; nothing otherwise.
+  std::optional<Pose2D> reversedPrediction(const Points2& points, const Pose2D& before, const Pose2D& u);
 
   RobotSlamParams params_;
   Pose2D laser_in_base_;

@@ -43,14 +43,19 @@ bool LocalTracker::doubted(const Pose2D& u, double stamp) const {
   return std::hypot(u.x, u.y) > limit;
 }
 
-CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw,
-                                         double sigma_xy, double sigma_yaw) {
+const LikelihoodGrid& LocalTracker::seedGrid() {
   if (!seed_matcher_ || seed_version_ != matcher_.version()) {
     auto grid = std::make_shared<const LikelihoodGrid>(matcher_.localPoints(), params_.seed.resolution,
                                                        params_.seed.sigma, params_.seed.max_xy);
     seed_matcher_ = std::make_unique<CorrelativeMatcher>(grid, 5);
     seed_version_ = matcher_.version();
   }
+  return seed_matcher_->grid();
+}
+
+CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw,
+                                         double sigma_xy, double sigma_yaw) {
+  seedGrid();
   SearchWindow window{center, xy, yaw, sigma_xy, sigma_yaw, params_.seed.penalty_gain, params_.seed.min_penalty};
   return seed_matcher_->match(points, window, params_.seed.min_score);
 }
@@ -74,16 +79,14 @@ bool LocalTracker::seedStandsAlone(const ScanStep& step) const {
   return params_.seed.alone_margin > 0 && step.seed_score >= step.prediction_score + params_.seed.alone_margin;
 }
 
-bool LocalTracker::scanPrefers(const LaserScan& scan, const Pose2D& match, const Pose2D& prediction) {
+bool LocalTracker::scanPrefers(const Points2& points, const Pose2D& match, const Pose2D& prediction) {
   if (!params_.seed.enabled) return false;
-  const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), params_.seed.resolution);
-  seedMatch(points, prediction, 0, 0, 0, 0);  // makes sure the local map's grid is current
-  const LikelihoodGrid& grid = seed_matcher_->grid();
+  const LikelihoodGrid& grid = seedGrid();
   return grid.score(transformPoints(points, match)) >
          grid.score(transformPoints(points, prediction)) + params_.seed.slip_margin;
 }
 
-std::optional<Pose2D> LocalTracker::reversedPrediction(const LaserScan& scan, const Pose2D& before, const Pose2D& u) {
+std::optional<Pose2D> LocalTracker::reversedPrediction(const Points2& points, const Pose2D& before, const Pose2D& u) {
   const SeedParams& sp = params_.seed;
   // Shorter increments end within the likelihood kernel of the prediction: nothing to tell.
   const double driven = std::hypot(u.x, u.y);
@@ -92,9 +95,7 @@ std::optional<Pose2D> LocalTracker::reversedPrediction(const LaserScan& scan, co
   const Pose2D forward = ekf_.pose();
   Pose2D backward = before.compose(Pose2D{-u.x, -u.y, u.yaw});
   backward.yaw = forward.yaw;  // the turn (and a gyro's correction of it) stands either way
-  const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), sp.resolution);
-  seedMatch(points, forward, 0, 0, 0, 0);  // makes sure the local map's grid is current
-  const LikelihoodGrid& grid = seed_matcher_->grid();
+  const LikelihoodGrid& grid = seedGrid();
   // Cheap test first: the full searches run only where backwards already fits better.
   if (grid.score(transformPoints(points, backward)) <= grid.score(transformPoints(points, forward))) return std::nullopt;
   const Pose2D prior = seedPrior(u);
@@ -131,21 +132,22 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
   have_gyro_ = false;
 
   if (params_.use_scan_matching && !matcher_.empty()) {
+    const SeedParams& sp = params_.seed;
+    // The scan as the correlative searches see it (thinned to their grid), made once per scan.
+    const Points2 points = sp.enabled ? thinPoints(scanPoints(scan, laser_in_base_), sp.resolution) : Points2{};
     if (scans_ > 0 && !step.odometry_doubted) {
       // Some odometry reports speed without its sign (every backward step of the bundled
       // CARMEN logs is written as forward motion): the scan decides the direction.
-      if (const auto backward = reversedPrediction(scan, before, u)) {
+      if (const auto backward = reversedPrediction(points, before, u)) {
         step.odometry_reversed = true;
         ekf_.reset(*backward, ekf_.covariance());
       }
     }
     Pose2D guess = ekf_.pose();
-    const SeedParams& sp = params_.seed;
     const Eigen::Matrix3d& P = ekf_.covariance();
     const double sigma_xy = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P.topLeftCorner<2, 2>()).eigenvalues().maxCoeff());
     const double sigma_yaw = std::sqrt(P(2, 2));
     if (sp.enabled && (step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
-      const Points2 points = thinPoints(scanPoints(scan, laser_in_base_), sp.resolution);
       const double xy = step.odometry_doubted ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
       const double yaw = step.odometry_doubted ? sp.max_yaw : std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw);
       const Pose2D prior = seedPrior(u);
@@ -194,7 +196,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       // A doubted prediction is worthless as a prior: let the match decide.
       if (step.odometry_doubted) ekf_.reset(ekf_.pose(), ekf_.covariance() + Eigen::Matrix3d::Identity());
       step.matched = ekf_.updatePose(step.match.pose, step.match.covariance);
-      if (!step.matched && scanPrefers(scan, step.match.pose, ekf_.pose())) {
+      if (!step.matched && scanPrefers(points, step.match.pose, ekf_.pose())) {
         // The gate says the match is far from the prediction, but the scan fits the local map
         // clearly better there: the odometry slipped (a bump, a wheel off the floor) while
         // predicting with confidence. Trust the scan.
