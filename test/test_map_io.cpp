@@ -121,6 +121,10 @@ TEST(MapIo, BadFilesGiveErrorsNamingTheFile) {
   EXPECT_NE(loadError(dir / "bad_origin.yaml").find("origin"), std::string::npos);
   EXPECT_NE(loadError(dir / "truncated.yaml").find("not_image.pgm"), std::string::npos);
   EXPECT_NE(loadError(dir / "nothing_here.yaml").find("nothing_here.yaml: no such file"), std::string::npos);
+  // An image name longer than the system allows (found by fuzz_map_loader: it aborted the loader).
+  writeText(dir / "long_name.yaml", "image: " + std::string(5000, 'x') + ".pgm\nresolution: 0.05\n" + tail);
+  EXPECT_NE(loadError(dir / "long_name.yaml").find("cannot be looked up"), std::string::npos);
+  EXPECT_NE(loadError(dir / std::string(5000, 'y')).find("cannot be looked up"), std::string::npos);
 }
 
 TEST(Grid, ValidateRejectsMalformedGrids) {

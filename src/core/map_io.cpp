@@ -36,6 +36,17 @@ T readScalarOr(const YAML::Node& root, const char* key, T fallback, const std::s
   return root[key] ? readScalar<T>(root, key, file) : fallback;
 }
 
+// The file must exist and be a regular file. A path the system will not look up (a name too
+// long, a directory without permission) is refused by name too: the throwing std::filesystem
+// calls once let a fuzzed yaml's image name abort the loader.
+void requireFile(const fs::path& path, const std::string& missing, const std::string& not_a_file) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (status.type() == fs::file_type::not_found) fail(path.string(), missing);
+  if (ec) fail(path.string(), "cannot be looked up (" + ec.message() + ")");
+  if (!fs::is_regular_file(status)) fail(path.string(), not_a_file);
+}
+
 constexpr long long kMaxImageCells = 400LL * 1000 * 1000;  // as validateGrid's limit
 
 // A PGM/PPM whose header claims more cells than any map has, or a binary one shorter than its
@@ -62,7 +73,9 @@ void checkPnmHeader(const std::string& path, const std::string& yaml_path) {
   const long long expected = static_cast<long long>(values[0]) * values[1] * (magic[1] == '6' ? 3 : 1) *
                              (values[2] > 255 ? 2 : 1);
   const long long header = in.tellg();
-  const long long size = static_cast<long long>(fs::file_size(path));
+  std::error_code ec;
+  const long long size = static_cast<long long>(fs::file_size(path, ec));
+  if (ec) fail(path, "cannot be read (" + ec.message() + ")");
   if (size - header < expected)
     fail(path, "image data truncated: header says " + std::to_string(values[0]) + " x " +
                    std::to_string(values[1]) + " cells, file holds " + std::to_string(size - header) +
@@ -120,8 +133,7 @@ void writeFile(const std::string& path, const std::string& bytes) {
 }  // namespace
 
 OccupancyGrid loadMap(const std::string& yaml_path) {
-  if (!fs::exists(yaml_path)) fail(yaml_path, "no such file");
-  if (!fs::is_regular_file(yaml_path)) fail(yaml_path, "not a file (a map yaml was expected)");
+  requireFile(yaml_path, "no such file", "not a file (a map yaml was expected)");
   YAML::Node root;
   try {
     root = YAML::LoadFile(yaml_path);
@@ -157,8 +169,7 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
 
   fs::path image_path(image_name);
   if (image_path.is_relative()) image_path = fs::path(yaml_path).parent_path() / image_path;
-  if (!fs::exists(image_path)) fail(image_path.string(), "image named in " + yaml_path + " not found");
-  if (!fs::is_regular_file(image_path)) fail(image_path.string(), "not a file (image of " + yaml_path + ")");
+  requireFile(image_path, "image named in " + yaml_path + " not found", "not a file (image of " + yaml_path + ")");
   checkPnmHeader(image_path.string(), yaml_path);
   checkPngStructure(image_path.string(), yaml_path);
   cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_UNCHANGED);
