@@ -7,7 +7,6 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cstdio>
-#include <utility>
 #include <variant>
 
 #include "mrslam/bench/trajectory_metrics.h"

@@ -55,7 +55,7 @@ const LikelihoodGrid& LocalTracker::seedGrid() {
 
 CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw,
                                          double sigma_xy, double sigma_yaw) {
-  seedGrid();
+  seedGrid();  // brings seed_matcher_ up to date with the local map
   SearchWindow window{center, xy, yaw, sigma_xy, sigma_yaw, params_.seed.penalty_gain, params_.seed.min_penalty};
   return seed_matcher_->match(points, window, params_.seed.min_score);
 }
@@ -165,7 +165,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
         }
       }
       step.prediction = guess;
-      step.prediction_score = seed_matcher_->grid().score(transformPoints(points, guess));
+      step.prediction_score = seedGrid().score(transformPoints(points, guess));
       if (seed.found) {
         guess = seed.pose;
         step.seeded = true;
