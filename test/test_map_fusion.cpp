@@ -112,18 +112,29 @@ TEST(MapFusion, AHeldPoseIsConfirmedOnlyWhereTheMapsStillSupportIt) {
   EXPECT_FALSE(wrong.accepted) << "a held pose 3 m off was confirmed";
 }
 
-TEST(MapFusion, SearchesFinerWhenTheCoarseSearchFindsNoOverlap) {
+TEST(MapFusion, FindsCorridorsTheCoarseLevelBlursWithoutAFinerSearch) {
   // Two windows of the real Freiburg 079 log (long corridors, B turned by 90 degrees), with
-  // the benchmark's drift: the global rotation candidate is 2 degrees off, at the coarse level
-  // the corridors do not line up and the best pose shares too little wall; one level finer
-  // they do. (Without drift the coarse search succeeds; 10 of 12 drift seeds need the retry.)
+  // the benchmark's drift. With the rotation spectra taken on the level they once were
+  // (spectrum_max_cells 400) the rotation candidate is 2 degrees off, so on the coarse level
+  // the corridors lie a coarse cell apart. Scored there with the full disagreement weight,
+  // those cells count as conflicts, the true pose never survives to the finer levels and the
+  // best pose shares too little wall; the lower coarse weight keeps it (a finer second search,
+  // retry_finer, used to be what found it, at four times the cost).
   const Pose2D truth{-9.51427, -9.20342, 1.56724};
   const WindowPair maps = windowPair("freiburg-079-corrected.log.gz", 1149, 2704, 2140, 3703, truth, 2);
-  FusionParams coarse_only;
-  coarse_only.retry_finer = 0;
-  const FusionResult first = alignMaps(maps.a, maps.b, coarse_only);
-  EXPECT_FALSE(first.accepted);
-  EXPECT_TRUE(first.verdict.no_overlap_found) << first.verdict.reason;
+  FusionParams full_weight;
+  full_weight.spectrum_max_cells = 400;
+  full_weight.rotation_candidates = 3;
+  full_weight.coarse_disagreement_weight = full_weight.disagreement_weight;
+  const FusionResult blurred = alignMaps(maps.a, maps.b, full_weight);
+  EXPECT_FALSE(blurred.accepted);
+  EXPECT_TRUE(blurred.verdict.no_overlap_found) << blurred.verdict.reason;
+  FusionParams coarse_weight = full_weight;
+  coarse_weight.coarse_disagreement_weight = FusionParams{}.coarse_disagreement_weight;
+  expectCorrect(alignMaps(maps.a, maps.b, coarse_weight), maps.b, truth);
+  FusionParams finer = full_weight;
+  finer.retry_finer = 1;
+  expectCorrect(alignMaps(maps.a, maps.b, finer), maps.b, truth);
   expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }
 
@@ -323,4 +334,20 @@ TEST(FusionParamsFile, RefusesUnknownKeysBadTypesAndOutOfRangeValuesNamingTheKey
   EXPECT_NE(refusal("max_entropy_increase: .nan\n").find("'max_entropy_increase'"), std::string::npos);
   EXPECT_EQ(refusal("min_acceptance: 0.9\n"), "accepted");
   fs::remove_all(dir);
+}
+
+TEST(MapFusion, TakesRotationSpectraFineEnoughToSeeASecondDirection) {
+  // Two windows of the real Freiburg 079 log (a 50-75 % pair of the merge benchmark, seed 99).
+  // A is one long corridor, 885 x 308 cells. Its Radon spectrum taken on 222 x 77 cells
+  // (spectrum_max_cells 400) correlates with B's in a single broad peak 15-17 degrees off the
+  // truth: no other rotation was ever searched, and the pose shared 1 m of wall. On the next
+  // finer level the spectra show the side corridors' direction too (every drift seed tried).
+  const Pose2D truth{-22.6048, -2.48698, 1.68233};
+  const WindowPair maps = windowPair("freiburg-079-corrected.log.gz", 2355, 3557, 951, 2598, truth, 1);
+  FusionParams coarse_spectrum;
+  coarse_spectrum.spectrum_max_cells = 400;
+  const FusionResult blind = alignMaps(maps.a, maps.b, coarse_spectrum);
+  EXPECT_FALSE(blind.accepted);
+  EXPECT_TRUE(blind.verdict.no_overlap_found) << blind.verdict.reason;
+  expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }

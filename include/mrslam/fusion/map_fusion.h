@@ -37,9 +37,9 @@ struct FusionParams {
   int segment_max_cells = 600;  // segments are drawn on the finest pyramid level within this size
   unsigned seed = 1;            // random segments are seeded: runs are reproducible
 
-  int spectrum_max_cells = 400;   // pyramid level used for Radon spectra
+  int spectrum_max_cells = 800;   // pyramid level used for Radon spectra
   double spectrum_step_deg = 1.0;
-  int rotation_candidates = 3;    // spectrum peaks; each is tried at alpha and alpha + 180 deg
+  int rotation_candidates = 5;    // spectrum peaks; each is tried at alpha and alpha + 180 deg
   int coarse_max_cells = 256;     // coarse pyramid level where hypotheses are scored
   int fourier_max_cells = 256;    // level of the Fourier translation search (>= coarse level)
   int translation_peaks = 6;      // correlation peaks per rotation
@@ -57,8 +57,10 @@ struct FusionParams {
   double chamfer_truncation = 2.0;  // cells; walls farther apart do not pull
   int max_free_points = 15000;    // free cells of B used per similarity evaluation
   double disagreement_weight = 10.0;  // ranking score agr - w * dis (w = 1: the paper's J)
+  double coarse_disagreement_weight = 5.0;  // the same weight where the Fourier search finds and
+                                            // the coarse level scores and tunes hypotheses
 
-  int retry_finer = 1;            // a search whose best pose shares too little wall is repeated
+  int retry_finer = 0;            // a search whose best pose shares too little wall is repeated
                                   // with the coarse and Fourier levels this many levels finer
   int retry_rotation_candidates = 5;  // ...and this many spectrum peaks
   double max_resolution_ratio = 4.0;  // maps whose resolutions differ more are refused

@@ -79,6 +79,7 @@ std::map<std::string, Field> fields(FusionParams& p) {
       {"chamfer_truncation", field(p.chamfer_truncation, 0.1, 1000)},
       {"max_free_points", field(p.max_free_points, 0, kBig)},
       {"disagreement_weight", field(p.disagreement_weight, 0, kBig)},
+      {"coarse_disagreement_weight", field(p.coarse_disagreement_weight, 0, kBig)},
       {"retry_finer", field(p.retry_finer, 0, 4)},
       {"retry_rotation_candidates", field(p.retry_rotation_candidates, 1, 180)},
       {"max_resolution_ratio", field(p.max_resolution_ratio, 1, 1000)},

@@ -158,7 +158,7 @@ void addSpectrumHypotheses(const Images& im, const FusionParams& params, std::ve
       globalRotationCandidates(occupiedPoints(im.pyr_a[im.spectrum]), occupiedPoints(im.pyr_b[im.spectrum]),
                                params.spectrum_step_deg * kDeg, params.rotation_candidates);
   clock.lap("spectra");
-  const CorrelationSearch correlation(im.pyr_a[im.fourier], im.pyr_b[im.fourier], params.disagreement_weight);
+  const CorrelationSearch correlation(im.pyr_a[im.fourier], im.pyr_b[im.fourier], params.coarse_disagreement_weight);
   const double fourier_to_coarse = std::pow(2.0, im.fourier - im.coarse);
   for (double alpha : alphas)
     for (const CellTransform& h : correlation.candidates(alpha, params.translation_peaks, 2))
@@ -182,7 +182,7 @@ void addSegmentHypotheses(const Images& im, const FusionParams& params, std::vec
 // Scores every hypothesis in its window on the coarse level and keeps the best few distinct ones.
 std::vector<CellTransform> bestCoarsePoses(const std::vector<Hypothesis>& hypotheses, const SimilarityIndex& index,
                                            const FusionParams& params) {
-  const double step = params.coarse_rotation_step_deg * kDeg, w = params.disagreement_weight;
+  const double step = params.coarse_rotation_step_deg * kDeg, w = params.coarse_disagreement_weight;
   std::vector<SearchResult> scored;
   for (const Hypothesis& h : hypotheses) scored.push_back(index.search(h.pose, h.radius, step, h.rotation_steps));
   std::sort(scored.begin(), scored.end(),
@@ -202,7 +202,7 @@ std::vector<CellTransform> bestCoarsePoses(const std::vector<Hypothesis>& hypoth
 // similarity index agrees it is better (the pyramid and the polish refine further).
 void tuneRotations(const Images& im, const SimilarityIndex& coarse_index, const FusionParams& params,
                    std::vector<CellTransform>& survivors) {
-  const double w = params.disagreement_weight;
+  const double w = params.coarse_disagreement_weight;
   const RadonTuner radon(occupiedPoints(im.pyr_a[im.coarse]), params.radon_window_deg * kDeg,
                          params.radon_step_deg * kDeg, params.radon_peaks);
   const std::vector<cv::Point2f> points_b = occupiedPoints(im.pyr_b[im.coarse]);
@@ -321,7 +321,7 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
   result.hypotheses = static_cast<int>(hypotheses.size());
 
   const SimilarityIndex coarse_index(im.pyr_a[im.coarse], im.pyr_b[im.coarse], params.max_free_points,
-                                     params.disagreement_weight);
+                                     params.coarse_disagreement_weight);
   std::vector<CellTransform> survivors = bestCoarsePoses(hypotheses, coarse_index, params);
   clock.lap("coarse");
   tuneRotations(im, coarse_index, params, survivors);
