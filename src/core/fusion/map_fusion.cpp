@@ -331,6 +331,8 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
   for (size_t i = 0; i < survivors.size(); ++i) finals[i].transform = survivors[i];
   const std::unique_ptr<SimilarityIndex> finest = refineDownThePyramid(im, params, finals);
   clock.lap("pyramid");
+  // Maps that fit the coarse level have no finer one: their windows (the held pose's too) are
+  // then searched with the coarse weight; the choice between finals uses the full weight.
   const SimilarityIndex& full = finest ? *finest : coarse_index;
   if (!finest)
     for (SearchResult& f : finals) f.counts = full.evaluate(f.transform);
