@@ -138,6 +138,22 @@ TEST(MapFusion, FindsCorridorsTheCoarseLevelBlursWithoutAFinerSearch) {
   expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }
 
+TEST(MapFusion, TakesRotationSpectraFineEnoughToSeeASecondDirection) {
+  // Two windows of the real Freiburg 079 log (a 50-75 % pair of the merge benchmark, seed 99).
+  // A is one long corridor, 885 x 308 cells. Its Radon spectrum taken on 222 x 77 cells
+  // (spectrum_max_cells 400) correlates with B's in a single broad peak 15-17 degrees off the
+  // truth: no other rotation was ever searched, and the pose shared 1 m of wall. On the next
+  // finer level the spectra show the side corridors' direction too (every drift seed tried).
+  const Pose2D truth{-22.6048, -2.48698, 1.68233};
+  const WindowPair maps = windowPair("freiburg-079-corrected.log.gz", 2355, 3557, 951, 2598, truth, 1);
+  FusionParams coarse_spectrum;
+  coarse_spectrum.spectrum_max_cells = 400;
+  const FusionResult blind = alignMaps(maps.a, maps.b, coarse_spectrum);
+  EXPECT_FALSE(blind.accepted);
+  EXPECT_TRUE(blind.verdict.no_overlap_found) << blind.verdict.reason;
+  expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
+}
+
 TEST(MapFusion, AcceptsRealWindowsWhoseWallsAgreeLess) {
   // Two windows of the real ACES log (a pair of the merge benchmark, seed 42). ACES walls are
   // cluttered, so even at the true pose only ~70 % of B's obstacles (in A's known space) land on
@@ -334,20 +350,4 @@ TEST(FusionParamsFile, RefusesUnknownKeysBadTypesAndOutOfRangeValuesNamingTheKey
   EXPECT_NE(refusal("max_entropy_increase: .nan\n").find("'max_entropy_increase'"), std::string::npos);
   EXPECT_EQ(refusal("min_acceptance: 0.9\n"), "accepted");
   fs::remove_all(dir);
-}
-
-TEST(MapFusion, TakesRotationSpectraFineEnoughToSeeASecondDirection) {
-  // Two windows of the real Freiburg 079 log (a 50-75 % pair of the merge benchmark, seed 99).
-  // A is one long corridor, 885 x 308 cells. Its Radon spectrum taken on 222 x 77 cells
-  // (spectrum_max_cells 400) correlates with B's in a single broad peak 15-17 degrees off the
-  // truth: no other rotation was ever searched, and the pose shared 1 m of wall. On the next
-  // finer level the spectra show the side corridors' direction too (every drift seed tried).
-  const Pose2D truth{-22.6048, -2.48698, 1.68233};
-  const WindowPair maps = windowPair("freiburg-079-corrected.log.gz", 2355, 3557, 951, 2598, truth, 1);
-  FusionParams coarse_spectrum;
-  coarse_spectrum.spectrum_max_cells = 400;
-  const FusionResult blind = alignMaps(maps.a, maps.b, coarse_spectrum);
-  EXPECT_FALSE(blind.accepted);
-  EXPECT_TRUE(blind.verdict.no_overlap_found) << blind.verdict.reason;
-  expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
 }
