@@ -443,8 +443,9 @@ int main(int argc, char** argv) {
     p.kind = "crop", p.a = share(OccupancyGrid(big)), p.truth = randomFrame(builder.rng);
     p.b = share(bench::reframeGrid(bench::cropGrid(big, big.width * 15 / 100, 0, big.width * 85 / 100, big.height), p.truth));
     p.overlap = bench::knownOverlap(*p.a, *p.b, p.truth);
-    std::printf("## Large pair: %d x %d and %d x %d cells (ACES at %.4f m)\n\n| tool | accepted | correct | ms |\n|---|---|---|---|\n",
-                p.a->width, p.a->height, p.b->width, p.b->height, big.resolution);
+    std::printf("## Large pair: %d x %d and %d x %d cells (ACES at %.4f m, B's frame x %.3f y %.3f yaw %.4f)\n\n"
+                "| tool | accepted | correct | ms |\n|---|---|---|---|\n",
+                p.a->width, p.a->height, p.b->width, p.b->height, big.resolution, p.truth.x, p.truth.y, p.truth.yaw);
     for (const auto& [tool_name, tool] : tools) {
       if (tool_name.rfind("mrpt", 0) == 0) continue;  // minutes per run on this size; see the closing note
       const Outcome o = tool(p);
