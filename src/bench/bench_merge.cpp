@@ -453,8 +453,9 @@ int main(int argc, char** argv) {
       const Outcome o = tool(p);
       std::printf("| %s | %s | %s | %.0f |\n", tool_name.c_str(), o.accepted ? "yes" : "no", o.correct ? "yes" : "no", o.time_ms);
     }
-    // Where the time went: on a virtual machine, memory the guest never touched before costs
-    // several times more to fault in, which shows up in the stages that allocate the most.
+    // Where the time went: on a virtual machine whose balloon hands freed memory back to the
+    // host, pages freed seconds ago cost many times more to fault in again, which shows in the
+    // stages that allocate the most (the README's paragraph after the merge table).
     std::printf("\nmrslam ms per stage on this pair:");
     for (const auto& [stage, ms] : last_stages) std::printf(" %s %.0f,", stage.c_str(), ms);
     std::printf("\n");
