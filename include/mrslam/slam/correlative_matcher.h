@@ -26,6 +26,11 @@ struct SearchWindow {
   // while sigma_xy (sigma_yaw) is 0.
   double sigma_xy = 0, sigma_yaw = 0;
   double penalty_gain = 0.05, min_penalty = 0.5;
+  // Optional, with sigma_xy: offsets along `along_direction` (rad, in the grid's frame) get a
+  // factor of their own, max(min_penalty_along, 1 - gain * (d / sigma_along)^2), and sigma_xy
+  // then weighs offsets across that direction only (odometry knows how far it drove better than
+  // where it went). Off while sigma_along is 0.
+  double sigma_along = 0, along_direction = 0, min_penalty_along = 0.5;
 };
 
 struct CorrelativeMatch {

@@ -32,6 +32,9 @@ struct SeedParams {
   double window_sigmas = 3.0;    // the window spans this many predicted sigmas either way...
   double max_xy = 1.0;           // m: ...at most this far
   double max_yaw = 0.52;         // rad: ...and this much turn (30 degrees)
+  double min_yaw = 0.35;         // rad: ...but never less than this (20 degrees): wheels slip
+                                 // most while turning on the spot, where a confident prediction
+                                 // can be 9 degrees off in one scan
   double min_score = 0.1;        // a seed scoring less is not used (ICP starts from the prediction)
   double penalty_gain = 0.05;    // prior around the prediction: a pose k prior sigmas away
   double min_penalty = 0.7;      // scores x max(min_penalty, 1 - gain k^2), so where the scan
@@ -44,6 +47,13 @@ struct SeedParams {
   double prior_sigma_yaw = 0.035;        // rad, plus...
   double prior_sigma_yaw_per_m = 0.05;   // ...per m driven, plus...
   double prior_sigma_yaw_per_rad = 0.1;  // ...per rad turned
+  // Along the increment's direction the prior is tighter and may weigh more: odometry measures
+  // how far it drove far better than where it went (scans metres apart along a corridor fit
+  // about as well anywhere along it, and the best of them slid seeds 1 m from a prediction
+  // 0.1-0.2 m off). prior_sigma_xy then weighs offsets across that direction only.
+  double prior_sigma_along = 0.05;       // m (0: off), plus...
+  double prior_sigma_along_per_m = 0.05; // ...per m driven
+  double min_penalty_along = 0.3;        // the along-track factor's floor (min_penalty: across)
   double jump_margin = 0.15;     // a doubted increment is judged a jump (no motion) only when the
                                  // scan scores this much higher there than where odometry says
   double slip_margin = 0.1;      // a match the EKF gate refuses is still taken when the scan

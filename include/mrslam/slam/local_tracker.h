@@ -2,9 +2,11 @@
 // corrects the yaw increment, ICP against a local map of recent key scans corrects the pose.
 // Its wide basin: when the prediction is uncertain (poor odometry, scans far apart) or the
 // odometry increment is long enough to be a jump, a correlative search over a window of poses
-// seeds ICP; a doubted increment is searched around both the odometry's prediction and the
-// previous pose, and the better match decides whether the robot moved; an increment the scan
-// fits clearly better driven backwards is reversed (odometry that reports no sign).
+// seeds ICP (the window never narrower than seed_min_yaw, the prior around the prediction
+// tighter along the direction driven than across it); a doubted increment is searched around
+// both the odometry's prediction and the previous pose, and the better match decides whether
+// the robot moved; an increment the scan fits clearly better driven backwards is reversed
+// (odometry that reports no sign).
 #pragma once
 
 #include <memory>
@@ -33,14 +35,22 @@ class LocalTracker {
   const OdometryCalibration& calibration() const { return calibration_; }
 
  private:
+  // The seed's prior around a prediction: how far odometry itself errs over the increment.
+  struct SeedPrior {
+    double xy = 0;         // m: across the direction driven (in every direction when along is 0)
+    double yaw = 0;        // rad
+    double along = 0;      // m: along the direction driven (0: none)
+    double direction = 0;  // rad: the direction driven, in the tracker's frame
+    SeedPrior isotropic() const { return {xy, yaw, 0.0, 0.0}; }
+  };
+
   // The local map's likelihood grid, rebuilt when the local map changed.
   const LikelihoodGrid& seedGrid();
   // The best correlative match in a window around `center`, on the local map.
-  CorrelativeMatch seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw, double sigma_xy,
-                             double sigma_yaw);
+  CorrelativeMatch seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw, const SeedPrior& prior);
   bool doubted(const Pose2D& increment, double stamp) const;
-  // The sigmas (x: in x and y, yaw) of the seed's prior: how far odometry errs over `increment`.
-  Pose2D seedPrior(const Pose2D& increment) const;
+  // The prior of a seed for the increment `u` driven from `before`.
+  SeedPrior seedPrior(const Pose2D& before, const Pose2D& u) const;
   // Whether ICP, weak on its own, landed where the seed put the scan.
   bool seedConfirms(const ScanStep& step) const;
   // Whether a seed ICP did not confirm still scored clearly above the prediction.

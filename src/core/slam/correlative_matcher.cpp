@@ -118,10 +118,31 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
   };
   std::vector<double> yaw_factor;
   for (double theta : angles) yaw_factor.push_back(factor(Pose2D::normalizeAngle(theta - window.center.yaw), window.sigma_yaw));
+  // With an along-track sigma, offsets along and across the direction driven have factors of
+  // their own. A candidate block's offsets project onto each axis as an interval, and each factor
+  // is largest at the interval's point nearest 0: their product bounds every pose of the block.
+  const bool directed = window.sigma_along > 0 && window.sigma_xy > 0;
+  const double along_x = std::cos(window.along_direction), along_y = std::sin(window.along_direction);
+  auto along_factor = [&](double offset) {
+    return std::max(window.min_penalty_along,
+                    1.0 - window.penalty_gain * (offset * offset) / (window.sigma_along * window.sigma_along));
+  };
+  auto nearest_zero = [](double lo, double hi) { return lo > 0 ? lo : (hi < 0 ? -hi : 0.0); };
   auto prior = [&](const Candidate& c, int size) {
-    auto nearest = [size](int lo) { return lo > 0 ? lo : (lo + size - 1 < 0 ? lo + size - 1 : 0); };
-    const double d = res * std::hypot(nearest(c.dx), nearest(c.dy));
-    return yaw_factor[c.rotation] * factor(d, window.sigma_xy);
+    if (!directed) {
+      auto nearest = [size](int lo) { return lo > 0 ? lo : (lo + size - 1 < 0 ? lo + size - 1 : 0); };
+      const double d = res * std::hypot(nearest(c.dx), nearest(c.dy));
+      return yaw_factor[c.rotation] * factor(d, window.sigma_xy);
+    }
+    double along_lo = 1e300, along_hi = -1e300, across_lo = 1e300, across_hi = -1e300;
+    for (const int x : {c.dx, c.dx + size - 1})
+      for (const int y : {c.dy, c.dy + size - 1}) {
+        const double along = res * (x * along_x + y * along_y), across = res * (y * along_x - x * along_y);
+        along_lo = std::min(along_lo, along), along_hi = std::max(along_hi, along);
+        across_lo = std::min(across_lo, across), across_hi = std::max(across_hi, across);
+      }
+    return yaw_factor[c.rotation] * factor(nearest_zero(across_lo, across_hi), window.sigma_xy) *
+           along_factor(nearest_zero(along_lo, along_hi));
   };
   auto is_excluded = [&](const Candidate& c) {
     if (!excluded) return false;

@@ -54,17 +54,27 @@ const LikelihoodGrid& LocalTracker::seedGrid() {
 }
 
 CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw,
-                                         double sigma_xy, double sigma_yaw) {
+                                         const SeedPrior& prior) {
   seedGrid();  // brings seed_matcher_ up to date with the local map
-  SearchWindow window{center, xy, yaw, sigma_xy, sigma_yaw, params_.seed.penalty_gain, params_.seed.min_penalty};
+  SearchWindow window{center, xy, yaw, prior.xy, prior.yaw, params_.seed.penalty_gain, params_.seed.min_penalty};
+  window.sigma_along = prior.along;
+  window.along_direction = prior.direction;
+  window.min_penalty_along = params_.seed.min_penalty_along;
   return seed_matcher_->match(points, window, params_.seed.min_score);
 }
 
-Pose2D LocalTracker::seedPrior(const Pose2D& increment) const {
+LocalTracker::SeedPrior LocalTracker::seedPrior(const Pose2D& before, const Pose2D& u) const {
   const SeedParams& sp = params_.seed;
-  const double driven = std::hypot(increment.x, increment.y);
-  return {sp.prior_sigma_xy + sp.prior_sigma_xy_per_m * driven, 0.0,
-          sp.prior_sigma_yaw + sp.prior_sigma_yaw_per_m * driven + sp.prior_sigma_yaw_per_rad * std::abs(increment.yaw)};
+  const double driven = std::hypot(u.x, u.y);
+  SeedPrior prior;
+  prior.xy = sp.prior_sigma_xy + sp.prior_sigma_xy_per_m * driven;
+  prior.yaw = sp.prior_sigma_yaw + sp.prior_sigma_yaw_per_m * driven + sp.prior_sigma_yaw_per_rad * std::abs(u.yaw);
+  // An increment shorter than two cells of the search grid has no direction worth the name.
+  if (sp.prior_sigma_along > 0 && driven > 2 * sp.resolution) {
+    prior.along = sp.prior_sigma_along + sp.prior_sigma_along_per_m * driven;
+    prior.direction = before.yaw + std::atan2(u.y, u.x);
+  }
+  return prior;
 }
 
 bool LocalTracker::seedConfirms(const ScanStep& step) const {
@@ -98,10 +108,11 @@ std::optional<Pose2D> LocalTracker::reversedPrediction(const Points2& points, co
   const LikelihoodGrid& grid = seedGrid();
   // Cheap test first: the full searches run only where backwards already fits better.
   if (grid.score(transformPoints(points, backward)) <= grid.score(transformPoints(points, forward))) return std::nullopt;
-  const Pose2D prior = seedPrior(u);
+  // Both directions are searched alike (no along-track prior, which would favour neither).
+  const SeedPrior prior = seedPrior(before, u).isotropic();
   const double xy = std::min(sp.max_xy, driven), yaw = std::min(sp.max_yaw, sp.window_sigmas * prior.yaw);
-  const CorrelativeMatch ahead = seedMatch(points, forward, xy, yaw, prior.x, prior.yaw);
-  const CorrelativeMatch behind = seedMatch(points, backward, xy, yaw, prior.x, prior.yaw);
+  const CorrelativeMatch ahead = seedMatch(points, forward, xy, yaw, prior);
+  const CorrelativeMatch behind = seedMatch(points, backward, xy, yaw, prior);
   if (!behind.found || behind.score <= (ahead.found ? ahead.score : 0.0) + sp.reverse_margin) return std::nullopt;
   return backward;
 }
@@ -149,12 +160,16 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const double sigma_yaw = std::sqrt(P(2, 2));
     if (sp.enabled && (step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
       const double xy = step.odometry_doubted ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
-      const double yaw = step.odometry_doubted ? sp.max_yaw : std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw);
-      const Pose2D prior = seedPrior(u);
-      CorrelativeMatch seed = seedMatch(points, guess, xy, yaw, prior.x, prior.yaw);
+      const double yaw = step.odometry_doubted
+                             ? sp.max_yaw
+                             : std::max(sp.min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
+      // A reversed increment is the scan's guess, not odometry's measurement: its length earns
+      // no tighter prior.
+      const SeedPrior prior = step.odometry_reversed ? seedPrior(before, u).isotropic() : seedPrior(before, u);
+      CorrelativeMatch seed = seedMatch(points, guess, xy, yaw, prior);
       if (step.odometry_doubted) {
         const Pose2D still{before.x, before.y, Pose2D::normalizeAngle(before.yaw + turned)};
-        const CorrelativeMatch at_rest = seedMatch(points, still, xy, yaw, prior.x, prior.yaw);
+        const CorrelativeMatch at_rest = seedMatch(points, still, xy, yaw, prior.isotropic());  // drove nowhere
         // Odometry is data: the robot stood still only when the scan clearly says so (along a
         // corridor both hypotheses find a pose that fits about as well).
         if (at_rest.found && (!seed.found || at_rest.score > seed.score + sp.jump_margin)) {
