@@ -160,9 +160,12 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const double sigma_yaw = std::sqrt(P(2, 2));
     if (sp.enabled && (step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
       const double xy = step.odometry_doubted ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
+      // Wheels slip while turning more than the motion model says; a gyro does not: without
+      // one, the window is never narrower than min_yaw.
+      const double min_yaw = step.imu_used ? 0.0 : sp.min_yaw;
       const double yaw = step.odometry_doubted
                              ? sp.max_yaw
-                             : std::max(sp.min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
+                             : std::max(min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
       // A reversed increment is the scan's guess, not odometry's measurement: its length earns
       // no tighter prior.
       const SeedPrior prior = step.odometry_reversed ? seedPrior(before, u).isotropic() : seedPrior(before, u);
