@@ -296,7 +296,8 @@ TEST(LocalTracker, SeedsKeepTheDistanceOdometryDroveAlongCorridors) {
 // turns 9 degrees and the odometry 1, under a prediction the filter trusted to about a degree. A
 // seed window of three predicted sigmas never held the true heading, ICP settled 8 degrees off,
 // and the scans after it were drawn into a rotated copy of the room (the map's doubled walls
-// there). The window now spans at least seed_min_yaw. The tracker runs the log up to there (the
+// there). Where the scan fits the local map poorly at the prediction, as it does there, the
+// window now spans at least seed_min_yaw. The tracker runs the log up to there (the
 // filter's confidence at the slip is its history's) and the turn over scans 4540-4560 is
 // compared with the reference's.
 double turnErrorOverTheSlip(const RobotSlamParams& params) {

@@ -32,9 +32,10 @@ struct SeedParams {
   double window_sigmas = 3.0;    // the window spans this many predicted sigmas either way...
   double max_xy = 1.0;           // m: ...at most this far
   double max_yaw = 0.52;         // rad: ...and this much turn (30 degrees)
-  double min_yaw = 0.35;         // rad: ...but, without a gyro, never less than this (20 degrees):
-                                 // wheels slip most while turning on the spot, where a confident
-                                 // prediction can be 9 degrees off in one scan
+  double min_yaw = 0.35;         // rad: ...but, without a gyro, never less than this (20 degrees)
+  double min_yaw_below_score = 0.6;  // where the scan fits the local map less than this at the
+                                 // prediction: wheels slip most while turning on the spot, where a
+                                 // confident prediction can be 9 degrees off in one scan
   double min_score = 0.1;        // a seed scoring less is not used (ICP starts from the prediction)
   double penalty_gain = 0.05;    // prior around the prediction: a pose k prior sigmas away
   double min_penalty = 0.7;      // scores x max(min_penalty, 1 - gain k^2), so where the scan

@@ -160,9 +160,12 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const double sigma_yaw = std::sqrt(P(2, 2));
     if (sp.enabled && (step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
       const double xy = step.odometry_doubted ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
-      // Wheels slip while turning more than the motion model says; a gyro does not: without
-      // one, the window is never narrower than min_yaw.
-      const double min_yaw = step.imu_used ? 0.0 : sp.min_yaw;
+      // Wheels slip while turning more than the motion model says; a gyro does not. Without
+      // one, where the scan fits the local map poorly at the prediction (as it does after a
+      // turn the odometry missed), the window is never narrower than min_yaw.
+      step.prediction = guess;
+      step.prediction_score = seedGrid().score(transformPoints(points, guess));
+      const double min_yaw = step.imu_used || step.prediction_score >= sp.min_yaw_below_score ? 0.0 : sp.min_yaw;
       const double yaw = step.odometry_doubted
                              ? sp.max_yaw
                              : std::max(min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
@@ -182,8 +185,6 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
           ekf_.reset(still, before_cov + Eigen::Matrix3d::Identity() * 0.01);
         }
       }
-      step.prediction = guess;
-      step.prediction_score = seedGrid().score(transformPoints(points, guess));
       if (seed.found) {
         guess = seed.pose;
         step.seeded = true;
