@@ -315,7 +315,7 @@ TEST(SlamLogCli, RunsARealLogAndRejectsBadInputWithExitTwo) {
 }
 
 // A slower scanner from a real log, every phase of the decimation; bad options refused.
-TEST(ConvertLogCli, WritesEveryPhaseOfADecimationAndRefusesBadOptions) {
+TEST(ConvertLogCli, WritesEveryPhaseOfADecimationAndLaterStartsAndRefusesBadOptions) {
   const std::string bin = MRSLAM_CONVERT_LOG_BIN;
   const std::string dir = ::testing::TempDir();
   const std::string in = test::dataPath("logs/carmen_corrected/aces-corrected.log.gz");
@@ -325,12 +325,20 @@ TEST(ConvertLogCli, WritesEveryPhaseOfADecimationAndRefusesBadOptions) {
   ASSERT_EQ(phase4.records.size(), (full.records.size() - 4 + 4) / 5);
   EXPECT_EQ(phase4.records[2].scan.ranges.size(), full.records[14].scan.ranges.size());
   EXPECT_NEAR(phase4.records[2].reference.x, full.records[14].reference.x, 1e-5);
-  for (const std::string bad : {"--every 5 --phase 5", "--every 3 --phase -1", "--phase x", "--every 0"}) {
+  const auto later = test::runCommand(bin + " " + in + " " + dir + "/aces_from3.log --from 3");
+  ASSERT_EQ(later.status, 0) << later.output;
+  const slam::RobotLog from3 = slam::readRobotLog(dir + "/aces_from3.log");
+  ASSERT_EQ(from3.records.size(), full.records.size() - 3);
+  EXPECT_NEAR(from3.records[0].reference.x, full.records[3].reference.x, 1e-5);
+  EXPECT_NEAR(from3.records[1].odometry.x, full.records[4].odometry.x, 1e-4);
+  for (const std::string bad : {"--every 5 --phase 5", "--every 3 --phase -1", "--phase x", "--every 0", "--from -2",
+                                "--from 100000"}) {
     const auto refused = test::runCommand(bin + " " + in + " " + dir + "/bad.log " + bad);
     EXPECT_EQ(refused.status, 2) << bad << ": " << refused.output;
     EXPECT_NE(refused.output.find("mrslam_convert_log: "), std::string::npos) << refused.output;
   }
   std::remove((dir + "/aces5.log").c_str());
+  std::remove((dir + "/aces_from3.log").c_str());
 }
 
 // Inputs that once gave quiet partial results, garbage or a crash (issue 15), each refused

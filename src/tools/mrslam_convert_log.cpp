@@ -1,11 +1,13 @@
 // mrslam_convert_log: a robot log as mrslam reads it, written again, for benchmarks that feed
 // other tools the same data (MRPT's icp-slam and rbpf-slam read rawlogs) or a slower scanner.
 //
-//   mrslam_convert_log IN OUT [--every K [--phase P]]
+//   mrslam_convert_log IN OUT [--from N] [--every K [--phase P]]
 //
-// IN: any log mrslam_slam_log reads. OUT: .log (CARMEN text) or .rawlog (MRPT). --every K keeps
+// IN: any log mrslam_slam_log reads. OUT: .log (CARMEN text) or .rawlog (MRPT). --from N starts
+// the log at scan N (the first N scans dropped, the robot starting there). --every K then keeps
 // every K-th scan (from scan P on, 0 <= P < K), the odometry of the dropped ones chained into
-// the next kept scan (the raw odometry's error stays that of the full log). Exit 2 on bad input or a failed write.
+// the next kept scan (the raw odometry's error stays that of the full log). Exit 2 on bad input
+// or a failed write.
 #include <iostream>
 #include <string>
 
@@ -22,14 +24,14 @@ bool endsWith(const std::string& s, const std::string& tail) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string usage = "usage: mrslam_convert_log IN OUT.{log,rawlog} [--every K [--phase P]]";
+  const std::string usage = "usage: mrslam_convert_log IN OUT.{log,rawlog} [--from N] [--every K [--phase P]]";
   std::string in, out;
-  int every = 1, phase = 0;
+  int every = 1, phase = 0, from = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--every" || a == "--phase") {
+    if (a == "--every" || a == "--phase" || a == "--from") {
       if (i + 1 >= argc) return fail(a + " needs a number\n" + usage);
-      int& value = a == "--every" ? every : phase;
+      int& value = a == "--every" ? every : a == "--phase" ? phase : from;
       const int least = a == "--every" ? 1 : 0;
       try {
         size_t used = 0;
@@ -57,6 +59,7 @@ int main(int argc, char** argv) {
   try {
     mrslam::slam::RobotLog log = mrslam::slam::readRobotLog(in);
     for (const auto& w : log.warnings) std::cerr << "warning: " << w << "\n";
+    if (from > 0) log = mrslam::slam::fromScan(log, static_cast<size_t>(from));
     if (every > 1) log = mrslam::slam::decimate(log, every, phase);
     if (endsWith(out, ".log")) mrslam::slam::writeCarmenLog(log, out);
     else mrslam::slam::writeMrptRawlog(log, out);

@@ -1,4 +1,7 @@
 // Writing robot logs, for benchmarks that feed other tools the very data mrslam reads:
+//   - fromScan(): the log from scan `first` on, as if the robot had started there (one run of
+//     a whole log is one draw as well: which scan the map frame is anchored to and which scans
+//     the loop closures meet decide a little of the result);
 //   - decimate(): the same log at a slower scan rate (every k-th scan from scan `phase` on:
 //     k phases give k different slow logs of one run), the odometry of the dropped scans
 //     chained into the next kept one, so the raw odometry's error is that of the
@@ -18,6 +21,7 @@
 
 namespace mrslam::slam {
 
+RobotLog fromScan(const RobotLog& log, size_t first);
 RobotLog decimate(const RobotLog& log, int every, int phase = 0);
 void writeCarmenLog(const RobotLog& log, const std::string& path);
 void writeMrptRawlog(const RobotLog& log, const std::string& path);

@@ -7,10 +7,20 @@
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/serialization/CArchive.h>
 
+#include <cstddef>
 #include <cstdio>
 #include <memory>
 
 namespace mrslam::slam {
+
+RobotLog fromScan(const RobotLog& log, size_t first) {
+  if (first >= log.records.size())
+    throw LogError(log.path + ": cannot start at scan " + std::to_string(first) + " of " + std::to_string(log.records.size()));
+  RobotLog out = log;
+  out.records.erase(out.records.begin(), out.records.begin() + static_cast<std::ptrdiff_t>(first));
+  out.records.front().odometry = Pose2D{};  // the robot starts here: no motion before it
+  return out;
+}
 
 RobotLog decimate(const RobotLog& log, int every, int phase) {
   if (every < 1) throw LogError(log.path + ": decimation must keep every k-th scan with k >= 1");
