@@ -8,7 +8,8 @@
 // loop_outlier_chi2 is dropped and the graph optimised again, so one wrong closure cannot wreck
 // the map. A closure that would move the graph further than loop_confirm_xy / _yaw from what
 // it believes is held until a second closure agrees with it (pairwise consistency through the
-// tracker's motion between the two nodes) and dropped if none does within loop_confirm_travel.
+// tracker's motion between the two nodes, the second from a node at least
+// loop_consistency_min_travel further along) and dropped if none does within loop_confirm_travel.
 // A failed optimisation keeps the last good poses and says why (stats().last_problem).
 //
 // The map: scans go into submaps (submap.h) in their anchor node's frame; the map is the

@@ -147,6 +147,10 @@ bool GraphSlam::agreesWithGraph(const Closure& c) const {
 }
 
 bool GraphSlam::consistent(const Closure& a, const Closure& b) const {
+  // Only an independent view confirms: the node after a wrong match sees the same stretch of
+  // corridor and is fooled the same way (ACES started 3 scans in: two nodes a metre apart
+  // agreed on a pose 5 m along a corridor).
+  if (std::abs(b.travel - a.travel) < params_.graph.loop_consistency_min_travel) return false;
   // Where each closure puts its node in the map frame; the tracker's motion between the two
   // nodes must join those places.
   const Pose2D a_to = poses_[a.from].compose(a.measurement);
