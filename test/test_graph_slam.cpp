@@ -1,10 +1,10 @@
 // The pose-graph front end on real data: the correlative matcher's branch and bound against
-// an exhaustive search, the local tracker's seeds (their prior along the direction driven, their
-// window when the odometry missed a turn), both pose-graph solvers, loop closure on a real log (better than the
-// EKF alone), a false closure injected and dropped, two neighbouring nodes fooled
-// by one corridor not confirming each other, the odometry calibration, log writing and
-// decimation, free space from no-return beams, and config/robot.yaml as the one list of
-// defaults.
+// an exhaustive search, the local tracker's seeds (their prior along the direction driven,
+// their window when the odometry missed a turn), both pose-graph solvers, loop closure on a
+// real log (better than the EKF alone), a false closure injected and dropped, two neighbouring
+// nodes fooled by one corridor not confirming each other, the odometry calibration, log
+// writing and decimation, free space from no-return beams, and config/robot.yaml as the one
+// list of defaults.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
@@ -250,8 +250,9 @@ TEST(GraphSlam, EveryFifthAcesScanFollowsTheScansWhereIcpCannotConfirm) {
 
 // ACES started 3 scans in: nodes 291 and 292 (a metre apart) both matched a submap 5 m along a
 // corridor from where they were (scores 0.58 and 0.67 in a 5 m window). Each confirmed the
-// other, and the optimum bent a fifth of the map by 10 degrees (global error 2.14 m). A second closure now counts only from a node
-// at least loop_consistency_min_travel further along: neither was confirmed.
+// other, and the optimum bent a fifth of the map by 10 degrees (global error 2.14 m). A second
+// closure now counts only from a node at least loop_consistency_min_travel further along:
+// neither was confirmed.
 TEST(GraphSlam, TwoNeighbouringNodesFooledByOneCorridorDoNotConfirmEachOther) {
   RobotSlamParams params = defaults();
   params.use_imu = false;
