@@ -1,14 +1,15 @@
-// The pose-graph front end on real data: the correlative matcher's branch and bound against
-// an exhaustive search, the local tracker's seeds (their prior along the direction driven,
-// their window when the odometry missed a turn), both pose-graph solvers, loop closure on a
-// real log (better than the EKF alone), a false closure injected and dropped, two neighbouring
-// nodes fooled by one corridor not confirming each other, the odometry calibration, log
-// writing and decimation, free space from no-return beams, and config/robot.yaml as the one
-// list of defaults.
+// The pose-graph front end on real data: the likelihood grid stamping each cell once, the
+// correlative matcher's branch and bound against an exhaustive search, the local tracker's
+// seeds (their prior along the direction driven, their window when the odometry missed a
+// turn), both pose-graph solvers, loop closure on a real log (better than the EKF alone), a
+// false closure injected and dropped, two neighbouring nodes fooled by one corridor not
+// confirming each other, the odometry calibration, log writing and decimation, free space from
+// no-return beams, and config/robot.yaml as the one list of defaults.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstdio>
+#include <set>
 #include <variant>
 
 #include "mrslam/bench/trajectory_metrics.h"
@@ -49,6 +50,36 @@ ScanPair scanPair(size_t a, size_t b) {
   for (size_t k = a + 1; k <= b; ++k) p.odometry = p.odometry.compose(log.records[k].odometry);
   p.truth = log.records[a].reference.inverse().compose(log.records[b].reference);
   return p;
+}
+
+// The grid stamps each cell's kernel once. Ten overlapping real scans (most points share a cell
+// with another) give the grid that stamping every point would.
+TEST(LikelihoodGrid, StampingEachCellOnceGivesTheGridEveryPointWouldStamp) {
+  const RobotLog& log = intelLog();
+  Points2 points;
+  for (size_t k = 300; k < 310; ++k) {
+    const Points2 scan = thinPoints(scanPoints(log.records[k].scan, log.records[k].reference.compose(log.laser_in_base)), 0.02);
+    points.insert(points.end(), scan.begin(), scan.end());
+  }
+  const double resolution = 0.05, sigma = 0.1;
+  const LikelihoodGrid grid(points, resolution, sigma, 1.0);
+  ASSERT_FALSE(grid.empty());
+  std::vector<uint8_t> every(grid.values().size(), 0);
+  const int reach = static_cast<int>(std::ceil(3 * sigma / resolution));
+  std::set<std::pair<int, int>> cells;
+  for (const auto& [x, y] : points) {
+    const int cx = static_cast<int>((x - grid.originX()) / resolution), cy = static_cast<int>((y - grid.originY()) / resolution);
+    cells.emplace(cx, cy);
+    for (int dy = -reach; dy <= reach; ++dy)
+      for (int dx = -reach; dx <= reach; ++dx) {
+        const double d2 = (dx * dx + dy * dy) * resolution * resolution;
+        const uint8_t v = d2 > 9 * sigma * sigma ? 0 : static_cast<uint8_t>(std::lround(255 * std::exp(-d2 / (2 * sigma * sigma))));
+        uint8_t& cell = every[static_cast<size_t>(cy + dy) * grid.width() + cx + dx];
+        cell = std::max(cell, v);
+      }
+  }
+  EXPECT_LT(cells.size(), points.size() / 2) << "the scans should overlap";
+  EXPECT_EQ(grid.values(), every);
 }
 
 TEST(CorrelativeMatcher, BranchAndBoundFindsWhatAnExhaustiveSearchFinds) {

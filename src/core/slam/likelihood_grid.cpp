@@ -27,8 +27,14 @@ LikelihoodGrid::LikelihoodGrid(const Points2& reference, double resolution, doub
       const double d2 = (dx * dx + dy * dy) * resolution * resolution;
       kernel.push_back(d2 > 9 * sigma * sigma ? 0 : static_cast<uint8_t>(std::lround(255 * std::exp(-d2 / (2 * sigma * sigma)))));
     }
+  // A point's stamp depends only on its cell, and max is idempotent: stamp each cell once (key
+  // scans overlap, so most of a local map's points share a cell with an earlier one).
+  std::vector<bool> stamped(values_.size(), false);
   for (const auto& [x, y] : reference) {
     const int cx = static_cast<int>((x - origin_x_) / resolution), cy = static_cast<int>((y - origin_y_) / resolution);
+    const size_t cell = static_cast<size_t>(cy) * width_ + cx;
+    if (stamped[cell]) continue;
+    stamped[cell] = true;
     const uint8_t* k = kernel.data();
     for (int dy = -reach; dy <= reach; ++dy) {
       uint8_t* row = values_.data() + static_cast<size_t>(cy + dy) * width_;
