@@ -409,8 +409,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     const auto frame = mrslam::bench::frameInWorld(robots[n], 20, &rms);
     ASSERT_TRUE(frame) << n << ": too few poses with a reference";
     world[n] = *frame;
-    // What a failure needs to be read: a robot short of CPU drops scans, and its own map, not
-    // the merge, then strays from the reference.
+    // What a failure needs to be read: whether each robot heard its scans, and whether its own
+    // path, rather than a merge, strayed from the reference.
     std::printf("%s: %zu poses in its path for %zu scans in the bag, fit to the reference %.1f cm RMS\n", n.c_str(),
                 robots[n].estimate.size(), robots[n].reference.size(), 100 * rms);
   }
