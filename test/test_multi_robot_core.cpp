@@ -12,6 +12,7 @@
 #include "mrslam/map_io.h"
 #include "mrslam/octomap_export.h"
 #include "mrslam/publisher_claim.h"
+#include "mrslam/scan_stamp_gate.h"
 #include "test_data.h"
 
 namespace mrslam::fusion {
@@ -238,6 +239,42 @@ TEST(PublisherClaim, TheFirstPublisherHoldsANameUntilItFallsSilent) {
   claim.take("/laser_driver_restarted", 6.1);
   EXPECT_EQ(claim.holder(), "/laser_driver_restarted");
   EXPECT_TRUE(claim.heldByAnother("/robot1/laser_driver", 6.2, 5.0));
+}
+
+// Intel's scans as scripts/bench_multi's bags carry them (one every ~3.3 s), played while the
+// clock stood still for 22 s as rosbag play's /clock did under load in the multi_robot rostest.
+TEST(ScanStampGate, ScansInStrideAreUsedWhileTheClockStallsAndAStrayStampIsRefused) {
+  ScanStampGate gate(ScanStampRules{});
+  const double clock = 145.53;
+  double t = 145.6;
+  for (int i = 0; i < 7; ++i, t += 3.3) {
+    const StampVerdict v = gate.check(t, clock);
+    EXPECT_EQ(v.kind, StampVerdict::Kind::kUse) << "scan " << i << " at " << t << ": " << v.reason;
+    gate.used(t);
+  }
+  EXPECT_GT(gate.check(t, clock).clock_lag, 20.0);
+  const StampVerdict stray = gate.check(t + 3600, clock);
+  EXPECT_EQ(stray.kind, StampVerdict::Kind::kRefuse) << "an hour after the last scan";
+  EXPECT_NE(stray.reason.find("after the last scan"), std::string::npos) << stray.reason;
+  EXPECT_EQ(gate.check(t, t - 1).kind, StampVerdict::Kind::kUse) << "the next scan after the stray one";
+  ScanStampGate fresh(ScanStampRules{});
+  EXPECT_EQ(fresh.check(clock + 11, clock).kind, StampVerdict::Kind::kRefuse) << "no scan yet: the clock is all there is";
+  EXPECT_EQ(fresh.check(clock + 11, 0).kind, StampVerdict::Kind::kUse) << "no clock and no scan yet";
+  EXPECT_EQ(fresh.check(0, clock).kind, StampVerdict::Kind::kRefuse) << "stamped 0";
+}
+
+TEST(ScanStampGate, TimeGoingBackIsRefusedUntilItDoesSoSeveralScansInARow) {
+  ScanStampGate gate(ScanStampRules{1.0, 3, 10.0});
+  gate.used(200.0);
+  EXPECT_EQ(gate.check(199.5, 200).kind, StampVerdict::Kind::kUse) << "within max_time_jump";
+  EXPECT_EQ(gate.check(100.0, 200).kind, StampVerdict::Kind::kRefuse);
+  EXPECT_EQ(gate.check(200.5, 200).kind, StampVerdict::Kind::kUse) << "one stray old stamp breaks no run";
+  EXPECT_EQ(gate.check(100.0, 200).kind, StampVerdict::Kind::kRefuse);
+  EXPECT_EQ(gate.check(100.1, 200).kind, StampVerdict::Kind::kRefuse);
+  const StampVerdict restart = gate.check(100.2, 200);
+  EXPECT_EQ(restart.kind, StampVerdict::Kind::kRestart) << "three scans in a row: the bag restarted";
+  EXPECT_FALSE(gate.last()) << "the old scans are forgotten";
+  EXPECT_EQ(gate.check(100.3, 100.3).kind, StampVerdict::Kind::kUse);
 }
 
 TEST(OctomapExport, RealMapWallsBecomeOccupiedColumnsAndFreeCellsFree) {

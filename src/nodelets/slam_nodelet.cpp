@@ -43,6 +43,7 @@
 #include <optional>
 
 #include "mrslam/publisher_claim.h"
+#include "mrslam/scan_stamp_gate.h"
 #include "mrslam/slam/front_end.h"
 #include "mrslam/slam/simulated_gyro.h"
 #include "guarded_tf_listener.h"
@@ -62,9 +63,12 @@ class SlamNodelet : public nodelet::Nodelet {
     config.param<std::string>("base_frame", base_frame_, "base_link");
     config.param("publish_tf", publish_tf_, true);
     config.param("transform_tolerance", transform_tolerance_, 0.1);
-    config.param("max_time_jump", max_time_jump_, 1.0);
-    config.param("restart_scans", restart_scans_, 3);
-    config.param("future_tolerance", future_tolerance_, 10.0);
+    ScanStampRules stamp_rules;
+    config.param("max_time_jump", stamp_rules.max_time_jump, stamp_rules.max_time_jump);
+    config.param("restart_scans", stamp_rules.restart_scans, stamp_rules.restart_scans);
+    config.param("future_tolerance", stamp_rules.future_tolerance, stamp_rules.future_tolerance);
+    future_tolerance_ = stamp_rules.future_tolerance;
+    stamp_gate_ = std::make_unique<ScanStampGate>(stamp_rules);
     config.param("max_rays", max_rays_, 10000);
     config.param("trajectory_max_poses", trajectory_max_poses_, 20000);
     config.param("input_owner_timeout", input_owner_timeout_, 5.0);
@@ -158,36 +162,26 @@ class SlamNodelet : public nodelet::Nodelet {
     }
   }
 
-  // Why a scan's stamp cannot be used now (empty when it can). Time going back is a bag that
-  // restarted only when restart_scans scans in a row say so: one stray old stamp (or a scan
-  // stamped 0) must not wipe the map.
+  // Why a scan's stamp cannot be used now (empty when it can); starts a new map when the bag
+  // restarted (mrslam/scan_stamp_gate.h).
   std::string stampProblem(const ros::Time& stamp) {  // mutex_ held
-    const double t = stamp.toSec();
-    if (stamp.isZero()) return "scan stamped 0";
-    const ros::Time now = ros::Time::now();
-    if (!now.isZero() && t > now.toSec() + future_tolerance_)
-      return "scan stamped " + std::to_string(t - now.toSec()) + " s in the future";
-    if (!last_scan_time_ || t >= *last_scan_time_ - max_time_jump_) {
-      going_back_ = 0;
-      return "";
-    }
-    const bool in_order = going_back_ == 0 || t > last_back_time_;
-    going_back_ = in_order ? going_back_ + 1 : 1;
-    last_back_time_ = t;
-    if (going_back_ < restart_scans_)
-      return "scan stamped " + std::to_string(*last_scan_time_ - t) + " s before the last one";
-    NODELET_WARN("time went back %.1f s for %d scans in a row (bag restarted?): starting a new map and trajectory",
-                 *last_scan_time_ - t, going_back_);
+    const StampVerdict verdict = stamp_gate_->check(stamp.toSec(), ros::Time::now().toSec());
+    if (verdict.clock_lag > clock_lag_) clock_lag_ = verdict.clock_lag;
+    if (verdict.kind == StampVerdict::Kind::kUse && verdict.clock_lag > future_tolerance_)
+      NODELET_WARN_THROTTLE(30.0, "scans arrive up to %.1f s ahead of the clock (rosbag play publishes no /clock while "
+                            "it catches up under load; on wall time, the laser's host clock runs ahead): each scan "
+                            "is judged against the last one", verdict.clock_lag);
+    if (verdict.kind == StampVerdict::Kind::kRefuse) return verdict.reason;
+    if (verdict.kind == StampVerdict::Kind::kUse) return "";
+    NODELET_WARN("%s (bag restarted?): starting a new map and trajectory", verdict.reason.c_str());
     robot_.reset();
     last_odom_.reset();
-    last_scan_time_.reset();
     {
       std::lock_guard<std::mutex> input_lock(input_mutex_);
       gyro_.clear();
     }
     stamps_.clear();
     tf_buffer_->clear();
-    going_back_ = 0;
     ++resets_;
     return "";
   }
@@ -222,9 +216,9 @@ class SlamNodelet : public nodelet::Nodelet {
       return;
     }
     if (last_odom_) robot_->addOdometry(last_odom_->inverse().compose(*odom));
-    if (last_scan_time_ && params_.use_imu) integrateGyro(*last_scan_time_, t);
+    if (stamp_gate_->last() && params_.use_imu) integrateGyro(*stamp_gate_->last(), t);
     last_odom_ = odom;
-    last_scan_time_ = t;
+    stamp_gate_->used(t);
     const std::string msg_problem = scanMsgProblem(*msg, static_cast<size_t>(std::max(1, max_rays_)));
     if (!msg_problem.empty()) {
       ++rejected_;
@@ -350,6 +344,7 @@ class SlamNodelet : public nodelet::Nodelet {
       status.add("odometry messages with NaN", bad_odometry_);
     }
     status.add("resets (time jumps)", resets_);
+    status.add("largest lead of a scan over the clock (s)", clock_lag_);
     status.add("scans refused from a second publisher", impostor_scans_);
     const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
     status.add("odometry transforms refused from a second publisher", tf_refusals.transforms);
@@ -375,13 +370,14 @@ class SlamNodelet : public nodelet::Nodelet {
   std::mutex input_mutex_;
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
-  double transform_tolerance_ = 0.1, max_time_jump_ = 1.0, future_tolerance_ = 10.0, last_back_time_ = 0;
-  int restart_scans_ = 3, going_back_ = 0, max_rays_ = 10000, trajectory_max_poses_ = 20000;
+  double transform_tolerance_ = 0.1, future_tolerance_ = 10.0;
+  double clock_lag_ = 0;  // the most a scan was stamped ahead of the clock
+  int max_rays_ = 10000, trajectory_max_poses_ = 20000;
+  std::unique_ptr<ScanStampGate> stamp_gate_;
   slam::GyroNoiseModel gyro_model_;
   slam::RobotSlamParams params_;
   std::unique_ptr<slam::FrontEnd> robot_;
   std::optional<Pose2D> last_odom_;
-  std::optional<double> last_scan_time_;
   std::vector<ros::Time> stamps_;  // of every scan the front end used, in order
   std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered; input_mutex_
   uint64_t published_version_ = ~0ull;
