@@ -12,8 +12,9 @@
 // peers sending maps the fusion must refuse (they once killed every manager) are refused and
 // every robot's merge_status keeps coming; an impostor claiming robot2's id is refused (also
 // after the bag ends and robot2 stops sharing); scans stamped 0 or of a million rays are
-// refused and reset nothing; a second node's well-formed scans on /robot1/scan and its forged
-// odometry jump on /tf are refused while the bag plays, and robot1 still merges at the truth.
+// refused and reset nothing; a second node's well-formed scans on /robot1/scan (three of them a
+// loop stamped seconds back, as a restarted bag's) and its forged odometry jump on /tf are
+// refused while the bag plays and reset nothing, and robot1 still merges at the truth.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <mrslam/CompressedMapShare.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -318,6 +319,13 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
         fake.range_max = 30.0f;
         fake.ranges.assign(181, 2.5f);
         scan_pub.publish(fake);
+        // Three more stamped seconds before robot1's last scan, in order: were they counted
+        // before being refused as not robot1's own, they would look like a restarted bag and
+        // wipe its map (checked below: no resets).
+        for (int i = 0; i < 3; ++i) {
+          fake.header.stamp = ros::Time::now() - ros::Duration(6.0 - 0.1 * i);
+          scan_pub.publish(fake);
+        }
       }
     }
     std::lock_guard<std::mutex> lock(mutex);

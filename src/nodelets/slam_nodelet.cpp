@@ -189,6 +189,27 @@ class SlamNodelet : public nodelet::Nodelet {
   void processScan(const sensor_msgs::LaserScan::ConstPtr& msg, const std::string& publisher) {
     std::lock_guard<std::mutex> lock(mutex_);
     const double t = msg->header.stamp.toSec();
+    // The checks that change nothing come first: a scan they refuse leaves the filter, the
+    // stamp rules' count of scans going back and the topic's owner as they were.
+    const std::string msg_problem = scanMsgProblem(*msg, static_cast<size_t>(std::max(1, max_rays_)));
+    if (!msg_problem.empty()) {
+      ++rejected_;
+      last_problem_ = msg_problem;
+      NODELET_ERROR_THROTTLE(5.0, "scan rejected: %s", msg_problem.c_str());
+      return;
+    }
+    // The scan topic belongs to the node that publishes on it (the laser driver, a bag): well-
+    // formed scans from a second node would be drawn into the map wherever the odometry says,
+    // and the front end cannot tell them from real ones; their stamps must not count towards a
+    // restart either (three old stamps in a row would wipe the map).
+    const double wall = ros::WallTime::now().toSec();
+    if (scan_owner_.heldByAnother(publisher, wall, input_owner_timeout_)) {
+      ++rejected_, ++impostor_scans_;
+      last_problem_ = "scan from " + printable(publisher) + " refused: the scan topic belongs to " +
+                      printable(scan_owner_.holder());
+      NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return;
+    }
     const std::string stamp_problem = stampProblem(msg->header.stamp);
     if (!stamp_problem.empty()) {
       ++rejected_;
@@ -219,26 +240,7 @@ class SlamNodelet : public nodelet::Nodelet {
     if (stamp_gate_->last() && params_.use_imu) integrateGyro(*stamp_gate_->last(), t);
     last_odom_ = odom;
     stamp_gate_->used(t);
-    const std::string msg_problem = scanMsgProblem(*msg, static_cast<size_t>(std::max(1, max_rays_)));
-    if (!msg_problem.empty()) {
-      ++rejected_;
-      last_problem_ = msg_problem;
-      NODELET_ERROR_THROTTLE(5.0, "scan rejected: %s", msg_problem.c_str());
-      return;
-    }
-    // The scan topic belongs to the node that publishes on it (the laser driver, a bag): well-
-    // formed scans from a second node would be drawn into the map wherever the odometry says,
-    // and the front end cannot tell them from real ones. Checked last, so that a scan the
-    // checks above refuse never claims the topic.
-    const double wall = ros::WallTime::now().toSec();
-    if (scan_owner_.heldByAnother(publisher, wall, input_owner_timeout_)) {
-      ++rejected_, ++impostor_scans_;
-      last_problem_ = "scan from " + printable(publisher) + " refused: the scan topic belongs to " +
-                      printable(scan_owner_.holder());
-      NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
-      return;
-    }
-    scan_owner_.take(publisher, wall);
+    scan_owner_.take(publisher, wall);  // last, so that a scan refused above never claims the topic
     const slam::ScanStep step = robot_->processScan(scanFromMsg(*msg));
     if (!step.used) {
       ++rejected_;
