@@ -97,12 +97,15 @@ class SlamNodelet : public nodelet::Nodelet {
     scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(scan_sub_, *tf_buffer_, odom_frame_, 50, nh);
     scan_filter_->registerCallback(&SlamNodelet::onScan, this);
     scan_filter_->registerFailureCallback(
-        [this](const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::filter_failure_reasons::FilterFailureReason) {
+        [this](const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
           std::lock_guard<std::mutex> lock(mutex_);
           ++rejected_;
           last_problem_ = "no odometry transform at a scan's stamp";
-          NODELET_WARN_THROTTLE(5.0, "scan dropped: no transform %s -> %s at its stamp", odom_frame_.c_str(),
-                                msg->header.frame_id.c_str());
+          const char* why = reason == tf2_ros::filter_failure_reasons::OutTheBack     ? "stamped before the transforms kept"
+                            : reason == tf2_ros::filter_failure_reasons::EmptyFrameID ? "no frame_id"
+                                                                                      : "the queue overflowed waiting";
+          NODELET_WARN_THROTTLE(5.0, "scan dropped: no transform %s -> %s at its stamp (%s)", odom_frame_.c_str(),
+                                msg->header.frame_id.c_str(), why);
         });
     map_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / std::max(0.01, map_rate)), &SlamNodelet::onMapTimer, this);
 
@@ -181,6 +184,7 @@ class SlamNodelet : public nodelet::Nodelet {
       gyro_.clear();
     }
     stamps_.clear();
+    published_version_ = ~0ull, published_poses_ = 0;
     tf_buffer_->clear();
     ++resets_;
     return "";
@@ -275,28 +279,34 @@ class SlamNodelet : public nodelet::Nodelet {
     odom_pub_.publish(odom_msg);
   }
 
-  // The map and the trajectory, when they changed: pieces taken under the lock, composed outside.
+  // The map and the trajectory, each when it changed (a scan that adds nothing to the map
+  // still adds a pose): pieces taken under the lock, composed outside.
   void onMapTimer(const ros::WallTimerEvent&) {
     std::vector<slam::MapPart> parts;
     std::vector<Pose2D> trajectory;
     std::vector<ros::Time> stamps;
     ros::Time stamp;
+    bool map_changed = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (!robot_ || stamps_.empty() || robot_->mapVersion() == published_version_) return;
+      if (!robot_ || stamps_.empty()) return;
+      map_changed = robot_->mapVersion() != published_version_;
+      if (!map_changed && stamps_.size() == published_poses_) return;
       published_version_ = robot_->mapVersion();
-      parts = robot_->mapParts();
+      published_poses_ = stamps_.size();
+      if (map_changed) parts = robot_->mapParts();
       trajectory = robot_->trajectory();
       stamps = stamps_;
       stamp = stamps_.back();
     }
+    publishTrajectory(trajectory, stamps);
+    if (!map_changed) return;
     auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
     OccupancyGrid composed = slam::composeMap(parts);
     std::swap(composed.data, grid->data);  // the cells move into the message, no copy
     gridToMsg(composed, map_frame_, stamp, *grid, /*with_data=*/false);
     metadata_pub_.publish(grid->info);
     map_pub_.publish(nav_msgs::OccupancyGridConstPtr(grid));  // never modified after this line
-    publishTrajectory(trajectory, stamps);
     std::lock_guard<std::mutex> lock(mutex_);
     ++maps_published_;
     recent_addresses_.push_back(reinterpret_cast<uintptr_t>(grid.get()));
@@ -383,6 +393,7 @@ class SlamNodelet : public nodelet::Nodelet {
   std::vector<ros::Time> stamps_;  // of every scan the front end used, in order
   std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered; input_mutex_
   uint64_t published_version_ = ~0ull;
+  size_t published_poses_ = 0;
   size_t odometry_messages_ = 0, bad_odometry_ = 0, imu_rejected_ = 0;  // input_mutex_
   size_t rejected_ = 0, resets_ = 0, maps_published_ = 0;
   size_t impostor_scans_ = 0;
