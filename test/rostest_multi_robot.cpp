@@ -419,8 +419,13 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     world[n] = *frame;
     // What a failure needs to be read: whether each robot heard its scans, and whether its own
     // path, rather than a merge, strayed from the reference.
-    std::printf("%s: %zu poses in its path for %zu scans in the bag, fit to the reference %.1f cm RMS\n", n.c_str(),
-                robots[n].estimate.size(), robots[n].reference.size(), 100 * rms);
+    std::string missing;  // the bag's scans without a pose: their stamps, the first few
+    size_t count = 0;
+    for (const auto& [stamp, pose] : robots[n].reference)
+      if (!robots[n].estimate.count(stamp) && ++count <= 5) missing += " " + std::to_string(stamp * 1e-9);
+    std::printf("%s: %zu poses in its path for %zu scans in the bag, fit to the reference %.1f cm RMS%s%s\n", n.c_str(),
+                robots[n].estimate.size(), robots[n].reference.size(), 100 * rms,
+                missing.empty() ? "" : "; no pose for the scans at", missing.c_str());
   }
   for (const auto& n : names) {
     const Traffic& t = traffic[n];
