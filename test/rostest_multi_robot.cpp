@@ -426,6 +426,7 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     std::printf("%s: %zu poses in its path for %zu scans in the bag, fit to the reference %.1f cm RMS%s%s\n", n.c_str(),
                 robots[n].estimate.size(), robots[n].reference.size(), 100 * rms,
                 missing.empty() ? "" : "; no pose for the scans at", missing.c_str());
+    EXPECT_LE(count, 1u) << n << " lost " << count << " of its scans";
   }
   for (const auto& n : names) {
     const Traffic& t = traffic[n];
