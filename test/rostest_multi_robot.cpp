@@ -24,13 +24,16 @@
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/LaserScan.h>
+#include <ros/network.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
 #include <tf2/utils.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <xmlrpcpp/XmlRpcClient.h>
 
+#include <fstream>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -163,6 +166,31 @@ class MultiRobotTest : public ::testing::Test {
   }
 };
 
+// The pid of a node on this machine, asked over its XML-RPC API (-1 when it cannot be asked).
+int nodePid(const std::string& node) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false)) return -1;
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port)) return -1;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue request, response;
+  request[0] = ros::this_node::getName();
+  if (!client.execute("getPid", request, response) || response.size() < 3) return -1;
+  return static_cast<int>(response[2]);
+}
+
+// A process's peak resident memory in MB (/proc), or -1.
+double peakMegabytes(int pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return -1;
+}
+
 mrslam::LocalMapShare shareOf(const std::string& id, const mrslam::OccupancyGrid& grid, uint32_t version) {
   mrslam::LocalMapShare share;
   share.header.stamp = ros::Time::now();
@@ -193,13 +221,34 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   for (const auto& n : names) subscribe(nh, n);
   subscribeDiagnostics(nh);
   subscribeTraffic(nh);
-  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/robot1/scan", 10);
+  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/robot1/scan", 60);
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
   tf2_ros::TransformBroadcaster broadcaster;
   ros::Publisher share_pub = nh.advertise<mrslam::LocalMapShare>("/mrslam/map_share", 10);
   ros::AsyncSpinner spinner(2);
   spinner.start();
+  // Oversized scans stamped far ahead, to robot1 before its bag plays: refused at once, they
+  // cost nothing; held by the tf filter while they wait for an odometry that never comes, they
+  // would keep 400 MB (checked at the end against robot2's manager, which gets none).
+  {
+    const ros::WallTime wait_start = ros::WallTime::now();
+    while (scan_pub.getNumSubscribers() == 0 && (ros::WallTime::now() - wait_start).toSec() < 30)
+      ros::WallDuration(0.1).sleep();
+    sensor_msgs::LaserScan oversized;
+    oversized.header.frame_id = "robot1/laser";
+    oversized.angle_min = -M_PI;
+    oversized.angle_increment = static_cast<float>(2 * M_PI / 2e6);
+    oversized.angle_max = oversized.angle_min + oversized.angle_increment * (2e6 - 1);
+    oversized.range_min = 0.1f;
+    oversized.range_max = 30.0f;
+    oversized.ranges.assign(2000000, 5.0f);
+    for (int i = 0; i < 50; ++i) {
+      oversized.header.stamp = ros::Time::now() + ros::Duration(1000.0 + i);
+      scan_pub.publish(oversized);
+      ros::WallDuration(0.1).sleep();
+    }
+  }
 
   // Misbehaving peers: one sends a malformed grid (data shorter than width x height), one the
   // map of another building (Freiburg 101, a real map), and hostile ones well-formed maps the
@@ -428,6 +477,15 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
                 missing.empty() ? "" : "; no pose for the scans at", missing.c_str());
     EXPECT_LE(count, 1u) << n << " lost " << count << " of its scans";
   }
+  const double flooded = peakMegabytes(nodePid("/robot1/robot1_manager"));
+  const double calm = peakMegabytes(nodePid("/robot2/robot2_manager"));
+  std::printf("peak memory: robot1's manager %.0f MB (sent 50 scans of 8 MB stamped ahead), robot2's %.0f MB\n",
+              flooded, calm);
+  ASSERT_GT(flooded, 0) << "could not read robot1's manager's memory";
+  ASSERT_GT(calm, 0) << "could not read robot2's manager's memory";
+  // Measured: 652 MB against 161 when the scans waited in the tf filter's queue, 276 against
+  // 164 when refused at once (each still passes through the subscriber's queue).
+  EXPECT_LT(flooded, calm + 300) << "robot1 held scans it should have refused at once";
   for (const auto& n : names) {
     const Traffic& t = traffic[n];
     const double seconds = t.last - t.first;
