@@ -470,13 +470,13 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     // What a failure needs to be read: whether each robot heard its scans, and whether its own
     // path, rather than a merge, strayed from the reference.
     std::string missing;  // the bag's scans without a pose: their stamps, the first few
-    size_t count = 0;
+    size_t lost = 0;
     for (const auto& [stamp, pose] : robots[n].reference)
-      if (!robots[n].estimate.count(stamp) && ++count <= 5) missing += " " + std::to_string(stamp * 1e-9);
+      if (!robots[n].estimate.count(stamp) && ++lost <= 5) missing += " " + std::to_string(stamp * 1e-9);
     std::printf("%s: %zu poses in its path for %zu scans in the bag, fit to the reference %.1f cm RMS%s%s\n", n.c_str(),
                 robots[n].estimate.size(), robots[n].reference.size(), 100 * rms,
                 missing.empty() ? "" : "; no pose for the scans at", missing.c_str());
-    EXPECT_LE(count, 1u) << n << " lost " << count << " of its scans";
+    EXPECT_LE(lost, 1u) << n << " lost " << lost << " of its scans";
   }
   const double flooded = peakMegabytes(nodePid("/robot1/robot1_manager"));
   const double calm = peakMegabytes(nodePid("/robot2/robot2_manager"));

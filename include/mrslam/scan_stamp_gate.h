@@ -41,6 +41,7 @@ class ScanStampGate {
   void used(double t) { last_ = t; }
   // The stamp of the last scan used, if any since the start or the last restart.
   const std::optional<double>& last() const { return last_; }
+  const ScanStampRules& rules() const { return rules_; }
 
  private:
   ScanStampRules rules_;

@@ -66,7 +66,6 @@ class SlamNodelet : public nodelet::Nodelet {
     config.param("max_time_jump", stamp_rules.max_time_jump, stamp_rules.max_time_jump);
     config.param("restart_scans", stamp_rules.restart_scans, stamp_rules.restart_scans);
     config.param("future_tolerance", stamp_rules.future_tolerance, stamp_rules.future_tolerance);
-    future_tolerance_ = stamp_rules.future_tolerance;
     stamp_gate_ = std::make_unique<ScanStampGate>(stamp_rules);
     config.param("max_rays", max_rays_, 10000);
     config.param("trajectory_max_poses", trajectory_max_poses_, 20000);
@@ -181,7 +180,7 @@ class SlamNodelet : public nodelet::Nodelet {
   std::string stampProblem(const ros::Time& stamp) {  // mutex_ held
     const StampVerdict verdict = stamp_gate_->check(stamp.toSec(), ros::Time::now().toSec());
     if (verdict.clock_lag > clock_lag_) clock_lag_ = verdict.clock_lag;
-    if (verdict.kind == StampVerdict::Kind::kUse && verdict.clock_lag > future_tolerance_)
+    if (verdict.kind == StampVerdict::Kind::kUse && verdict.clock_lag > stamp_gate_->rules().future_tolerance)
       NODELET_WARN_THROTTLE(30.0, "scans arrive up to %.1f s ahead of the clock (rosbag play publishes no /clock while "
                             "it catches up under load; on wall time, the laser's host clock runs ahead): each scan "
                             "is judged against the last one", verdict.clock_lag);
@@ -401,7 +400,7 @@ class SlamNodelet : public nodelet::Nodelet {
   std::mutex input_mutex_;
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
-  double transform_tolerance_ = 0.1, future_tolerance_ = 10.0;
+  double transform_tolerance_ = 0.1;
   double clock_lag_ = 0;  // the most a scan was stamped ahead of the clock
   int max_rays_ = 10000, trajectory_max_poses_ = 20000;
   std::unique_ptr<ScanStampGate> stamp_gate_;
