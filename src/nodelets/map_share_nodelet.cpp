@@ -44,10 +44,13 @@ class MapShareNodelet : public nodelet::Nodelet {
     }
     compress_ = encoding == "zlib";
     compression_level_ = std::clamp(compression_level_, 1, 9);
+    // Every share is the whole map, so a peer needs only the newest: a queue of one per peer.
+    // A longer queue fills while a link is down and, when it returns, sends every stale map
+    // ahead of the newest over a link that carries a few KB/s.
     if (compress_)
-      share_pub_ = nh.advertise<CompressedMapShare>(compressed_topic, 10);
+      share_pub_ = nh.advertise<CompressedMapShare>(compressed_topic, 1);
     else
-      share_pub_ = nh.advertise<SharedMap>(topic, 10);
+      share_pub_ = nh.advertise<SharedMap>(topic, 1);
     map_sub_ = nh.subscribe("map", 1, &MapShareNodelet::onMap, this);
     pose_sub_ = nh.subscribe("pose", 1, &MapShareNodelet::onPose, this);
     timer_ = nh.createTimer(ros::Duration(1.0 / std::max(0.01, rate)), &MapShareNodelet::onTimer, this);
