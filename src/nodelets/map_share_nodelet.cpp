@@ -46,7 +46,7 @@ class MapShareNodelet : public nodelet::Nodelet {
     compression_level_ = std::clamp(compression_level_, 1, 9);
     // Every share is the whole map, so a peer needs only the newest: a queue of one per peer.
     // A longer queue fills while a link is down and, when it returns, sends every stale map
-    // ahead of the newest over a link that carries a few KB/s.
+    // ahead of the newest over a slow link (1 Mbit/s shared with the robot's other traffic).
     if (compress_)
       share_pub_ = nh.advertise<CompressedMapShare>(compressed_topic, 1);
     else
