@@ -2,7 +2,9 @@
 // ICP on real consecutive scans, grid updates, and the whole cascade on a real log excerpt.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <fstream>
 #include <sstream>
 #include <iterator>
@@ -15,6 +17,7 @@
 #include "mrslam/slam/robot_params.h"
 #include "mrslam/slam/ekf_front_end.h"
 #include "mrslam/slam/graph_slam.h"
+#include "mrslam/slam/gyro_buffer.h"
 #include "mrslam/slam/log_writers.h"
 #include "mrslam/slam/scan_matcher.h"
 #include "mrslam/slam/simulated_gyro.h"
@@ -271,6 +274,41 @@ TEST(SimulatedGyro, IntegratedYawIsTheTruthPlusBoundedNoise) {
   for (int i = 0; i < 50; ++i) worst = std::max(worst, std::abs(gyro.integratedYaw(0, 3, 0.5) - 0.5));
   EXPECT_GT(worst, 0.0);
   EXPECT_LT(worst, 5 * std::sqrt(gyro.integratedVariance(3)) + 1e-9);
+}
+
+TEST(GyroBuffer, IntegratesAnIntervalItsSamplesCoverInAnyArrivalOrder) {
+  GyroBuffer in_order(0.1), shuffled(0.1);
+  for (int i = 0; i <= 100; ++i) in_order.add(i * 0.01, 0.5);      // 100 Hz, 0.5 rad/s from 0 to 1 s
+  for (int i = 100; i >= 0; --i) shuffled.add(i * 0.01, 0.5);
+  ASSERT_TRUE(in_order.integrate(0.2, 0.7));
+  EXPECT_NEAR(*shuffled.integrate(0.2, 0.7), 0.25, 1e-12);
+  EXPECT_NEAR(*in_order.integrate(0.7, 0.95), 0.125, 1e-12);       // the next interval starts where this ended
+}
+
+TEST(GyroBuffer, AnIntervalPastTheNewestSampleWaitsForTheSamplesThatAreLate) {
+  // A loaded host delivers the gyro behind the scans: at the scan (1.0 s) samples reach 0.4 s.
+  // Holding 0.4 s's rate to the scan gave a robot's Intel excerpt 1.5 m instead of 0.03 m.
+  GyroBuffer gyro(0.1);
+  for (int i = 0; i <= 40; ++i) gyro.add(i * 0.01, 0.2);
+  EXPECT_FALSE(gyro.integrate(0.0, 1.0).has_value());
+  GyroBuffer waited(0.1);
+  for (int i = 0; i <= 40; ++i) waited.add(i * 0.01, 0.2);
+  for (int i = 41; i <= 100; ++i) waited.add(i * 0.01, i < 70 ? 1.0 : 0.2);  // the turn the late samples hold
+  ASSERT_EQ(waited.newest(), 1.0);
+  EXPECT_NEAR(*waited.integrate(0.0, 1.0), 0.2 * 0.71 + 1.0 * 0.29, 1e-9);  // 1 rad/s from 0.41 to 0.70 s
+  // The newest sample may hold up to max_gap: a scan 0.05 s after it is covered, one 0.15 s not.
+  EXPECT_TRUE(waited.integrate(1.0, 1.05).has_value());
+  EXPECT_FALSE(waited.integrate(1.05, 1.15).has_value());
+}
+
+TEST(GyroBuffer, AGapLongerThanMaxGapLeavesTheIntervalUnmeasuredAndBadSamplesAreRefused) {
+  GyroBuffer gyro(0.1);
+  for (double t : {0.0, 0.05, 0.1, 0.4, 0.45, 0.5}) gyro.add(t, 0.3);  // nothing from 0.1 to 0.4 s
+  EXPECT_FALSE(gyro.integrate(0.0, 0.5).has_value());
+  EXPECT_FALSE(gyro.add(0.6, std::nan("")));
+  EXPECT_FALSE(gyro.add(std::numeric_limits<double>::infinity(), 0.3));
+  EXPECT_EQ(gyro.newest(), 0.5);
+  EXPECT_FALSE(gyro.integrate(0.5, 0.5).has_value());  // an empty interval measures nothing
 }
 
 TEST(RobotParams, ConfigFileLoadsAndTyposAreErrors) {

@@ -15,8 +15,10 @@
 //
 // Timing: callbacks of different topics run in any order, so nothing is accumulated as it
 // arrives. Each scan waits (tf2 message filter) until odom_frame -> base_frame is known at its
-// stamp; the odometry increment is taken from tf at the two scan stamps and the gyro samples
-// are integrated over exactly that interval from a time-ordered buffer.
+// stamp, then, while a gyro is publishing, until its samples reach that stamp (at most
+// imu_wait, after which it goes on without the gyro; a loaded host delivers the gyro behind the
+// scans); the odometry increment is taken from tf at the two scan stamps and the gyro samples
+// are integrated over exactly that interval from a time-ordered buffer (slam/gyro_buffer.h).
 //
 // Zero copy: every map is a freshly allocated grid composed from the front end's map pieces
 // outside the lock the scan callback needs, published as a shared pointer and never touched
@@ -36,6 +38,7 @@
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <atomic>
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -44,6 +47,7 @@
 #include "mrslam/publisher_claim.h"
 #include "mrslam/scan_stamp_gate.h"
 #include "mrslam/slam/front_end.h"
+#include "mrslam/slam/gyro_buffer.h"
 #include "mrslam/slam/simulated_gyro.h"
 #include "guarded_tf_listener.h"
 #include "ros_conversions.h"
@@ -72,6 +76,14 @@ class SlamNodelet : public nodelet::Nodelet {
     config.param("input_owner_timeout", input_owner_timeout_, 5.0);
     config.param("gyro_noise_density", gyro_model_.noise_density, gyro_model_.noise_density);
     config.param("gyro_residual_bias", gyro_model_.residual_bias, gyro_model_.residual_bias);
+    double imu_max_gap = 0.1;
+    config.param("imu_wait", imu_wait_, imu_wait_);
+    config.param("imu_max_gap", imu_max_gap, imu_max_gap);
+    if (!(imu_wait_ >= 0) || !(imu_max_gap > 0)) {
+      NODELET_ERROR("imu_wait must be >= 0 and imu_max_gap > 0 (got %f, %f): using 0.5 and 0.1", imu_wait_, imu_max_gap);
+      imu_wait_ = 0.5, imu_max_gap = 0.1;
+    }
+    gyro_ = slam::GyroBuffer(imu_max_gap);
     double map_rate = 1.0, period = 1.0;
     config.param("map_publish_rate", map_rate, map_rate);
     config.param("diagnostics_period", period, period);
@@ -97,7 +109,7 @@ class SlamNodelet : public nodelet::Nodelet {
     // 108 to 522 MB before these checks came first (132 MB after).
     scan_sub_ = nh.subscribe("scan", 20, &SlamNodelet::onRawScan, this);
     scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(*tf_buffer_, odom_frame_, 50, nh);
-    scan_filter_->registerCallback(&SlamNodelet::onScan, this);
+    scan_filter_->registerCallback(&SlamNodelet::onTransformedScan, this);
     scan_filter_->registerFailureCallback(
         [this](const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
           std::lock_guard<std::mutex> lock(mutex_);
@@ -110,6 +122,7 @@ class SlamNodelet : public nodelet::Nodelet {
                                 msg->header.frame_id.c_str(), why);
         });
     map_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / std::max(0.01, map_rate)), &SlamNodelet::onMapTimer, this);
+    gyro_wait_timer_ = nh.createWallTimer(ros::WallDuration(kGyroWaitTick), [this](const ros::WallTimerEvent&) { drainScans(); });
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(nh.getNamespace());
@@ -128,32 +141,84 @@ class SlamNodelet : public nodelet::Nodelet {
   }
 
   void onImu(const sensor_msgs::Imu::ConstPtr& msg) {
-    std::lock_guard<std::mutex> lock(input_mutex_);
-    const double t = msg->header.stamp.toSec();
-    const double rate = msg->angular_velocity.z;
-    if (!std::isfinite(rate)) {
-      NODELET_WARN_THROTTLE(5.0, "IMU yaw rate is NaN/inf: sample ignored");
-      ++imu_rejected_;
-      return;
+    {
+      std::lock_guard<std::mutex> lock(input_mutex_);
+      // Kept in time order until a scan integrates the interval it belongs to.
+      if (!gyro_.add(msg->header.stamp.toSec(), msg->angular_velocity.z)) {
+        NODELET_WARN_THROTTLE(5.0, "IMU yaw rate or stamp is NaN/inf: sample ignored");
+        ++imu_rejected_;
+        return;
+      }
+      gyro_heard_ = ros::WallTime::now().toSec();
     }
-    // Kept in time order until a scan integrates the interval it belongs to.
-    auto at = std::upper_bound(gyro_.begin(), gyro_.end(), t, [](double v, const std::pair<double, double>& s) { return v < s.first; });
-    gyro_.insert(at, {t, rate});
-    while (gyro_.size() > 20000) gyro_.pop_front();
+    drainScans();
   }
 
-  // The gyro's yaw change over [t0, t1): each sample's rate holds until the next sample.
+  // The gyro's yaw change over [t0, t1), when its samples cover the interval; a gyro that is
+  // publishing but did not cover it is counted and reported.
   void integrateGyro(double t0, double t1) {  // mutex_ held
     std::lock_guard<std::mutex> lock(input_mutex_);
-    double yaw = 0, covered = 0;
-    for (size_t i = 0; i < gyro_.size(); ++i) {
-      const double start = std::max(t0, gyro_[i].first);
-      const double end = std::min(t1, i + 1 < gyro_.size() ? gyro_[i + 1].first : t1);
-      if (end > start) yaw += gyro_[i].second * (end - start), covered += end - start;
+    const bool publishing = gyroPublishing();
+    const std::optional<double> newest = gyro_.newest();
+    if (const auto yaw = gyro_.integrate(t0, t1)) {
+      robot_->addGyro(*yaw, slam::gyroIncrementVariance(gyro_model_, t1 - t0));
+    } else if (publishing) {
+      ++scans_without_gyro_;
+      last_problem_ = "gyro samples did not cover a scan's interval";
+      NODELET_WARN_THROTTLE(5.0, "gyro samples do not cover the scan interval [%.3f, %.3f] (newest sample %.3f s before "
+                            "the scan, or a gap over imu_max_gap): this scan's turn comes from odometry and the scan "
+                            "alone (a gyro lagging the scans by more than imu_wait on a loaded host does this)",
+                            t0, t1, newest ? t1 - *newest : 0.0);
     }
-    while (gyro_.size() > 1 && gyro_[1].first <= t1) gyro_.pop_front();
-    // Only an interval the samples (nearly) cover is a measurement.
-    if (covered > 0.9 * (t1 - t0) && t1 > t0) robot_->addGyro(yaw, slam::gyroIncrementVariance(gyro_model_, t1 - t0));
+  }
+
+  // A gyro sample arrived within the last second (wall) or the last imu_wait: scans wait for it.
+  bool gyroPublishing() const {  // input_mutex_ held
+    return params_.use_imu && gyro_heard_ > 0 && ros::WallTime::now().toSec() - gyro_heard_ <= std::max(1.0, imu_wait_);
+  }
+
+  // A scan out of the tf filter waits in line for the gyro samples up to its stamp.
+  void onTransformedScan(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
+    {
+      std::lock_guard<std::mutex> lock(waiting_mutex_);
+      waiting_.push_back({event, ros::WallTime::now().toSec()});
+      scans_waiting_ = true;
+    }
+    drainScans();
+  }
+
+  // Processes the waiting scans in order, each once the gyro's samples reach its stamp, the
+  // gyro is silent, it has waited imu_wait, or the line is full. One thread drains at a time
+  // (order matters); a callback that finds another draining leaves the line to it and to the
+  // timer, so no callback (a gyro sample's least of all) waits for a scan's matching.
+  void drainScans() {
+    if (!scans_waiting_) return;
+    std::unique_lock<std::mutex> draining(drain_mutex_, std::try_to_lock);
+    if (!draining.owns_lock()) return;
+    for (;;) {
+      ros::MessageEvent<sensor_msgs::LaserScan const> event;
+      {
+        std::lock_guard<std::mutex> lock(waiting_mutex_);
+        if (waiting_.empty()) {
+          scans_waiting_ = false;
+          return;
+        }
+        const WaitingScan& front = waiting_.front();
+        const double waited = ros::WallTime::now().toSec() - front.arrived;
+        bool wait = false;
+        {
+          std::lock_guard<std::mutex> input_lock(input_mutex_);
+          const std::optional<double> newest = gyro_.newest();
+          wait = gyroPublishing() && (!newest || *newest < front.event.getMessage()->header.stamp.toSec()) &&
+                 waited < imu_wait_ && waiting_.size() <= kMaxWaitingScans;
+        }
+        if (wait) return;
+        if (waited >= kGyroWaitTick) ++scans_waited_for_gyro_;
+        event = front.event;
+        waiting_.pop_front();
+      }
+      onScan(event);
+    }
   }
 
   void onRawScan(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
@@ -370,6 +435,8 @@ class SlamNodelet : public nodelet::Nodelet {
     {
       std::lock_guard<std::mutex> input_lock(input_mutex_);
       status.add("imu samples rejected", imu_rejected_);
+      status.add("scans that waited for the gyro", scans_waited_for_gyro_.load());
+      status.add("scans the gyro did not cover", scans_without_gyro_);
       status.add("odometry messages", odometry_messages_);
       status.add("odometry messages with NaN", bad_odometry_);
     }
@@ -389,15 +456,28 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("recent map addresses", addresses);
   }
 
-  // Lock rules. mutex_ guards the front end and what the scan callback shares with the map and
-  // diagnostics timers; the scan callback holds it while the front end runs (scans are
-  // processed one at a time anyway). The map timer takes the map's pieces and the trajectory
+  // Lock rules. drain_mutex_ is held by the one thread processing the scans waiting for the
+  // gyro (it takes mutex_ for each scan); waiting_mutex_ guards that line. mutex_ guards the
+  // front end and what the scan callback shares with the map and diagnostics timers; the
+  // scan callback holds it while the front end runs (scans are processed one at a time
+  // anyway). The map timer takes the map's pieces and the trajectory
   // under it and composes and publishes them after releasing it, so the scan callback never
   // waits for a map to be composed. input_mutex_ guards the gyro buffer and the odometry/IMU
   // counters: the odometry and IMU callbacks take only it, so they never wait for a scan's
-  // matching. Order: mutex_ before input_mutex_, never the other way.
+  // matching. Order: drain_mutex_, then waiting_mutex_ or mutex_, then input_mutex_.
+  struct WaitingScan {
+    ros::MessageEvent<sensor_msgs::LaserScan const> event;
+    double arrived;  // wall s, out of the tf filter
+  };
+  static constexpr double kGyroWaitTick = 0.02;   // s (wall): how often waiting scans are looked at
+  static constexpr size_t kMaxWaitingScans = 50;  // a longer line goes on without waiting
+  std::mutex drain_mutex_;
+  std::mutex waiting_mutex_;
   std::mutex mutex_;
   std::mutex input_mutex_;
+  std::deque<WaitingScan> waiting_;  // waiting_mutex_
+  std::atomic<bool> scans_waiting_{false};
+  double imu_wait_ = 0.5;            // s (wall)
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
   double transform_tolerance_ = 0.1;
@@ -409,10 +489,13 @@ class SlamNodelet : public nodelet::Nodelet {
   std::unique_ptr<slam::FrontEnd> robot_;
   std::optional<Pose2D> last_odom_;
   std::vector<ros::Time> stamps_;  // of every scan the front end used, in order
-  std::deque<std::pair<double, double>> gyro_;  // (stamp, yaw rate), time-ordered; input_mutex_
+  slam::GyroBuffer gyro_;  // input_mutex_
+  double gyro_heard_ = 0;  // wall s of the last gyro sample; input_mutex_
   uint64_t published_version_ = ~0ull;
   size_t published_poses_ = 0;
   size_t odometry_messages_ = 0, bad_odometry_ = 0, imu_rejected_ = 0;  // input_mutex_
+  std::atomic<size_t> scans_waited_for_gyro_{0};
+  size_t scans_without_gyro_ = 0;     // input_mutex_
   size_t rejected_ = 0, resets_ = 0, maps_published_ = 0;
   size_t impostor_scans_ = 0;
   PublisherClaim scan_owner_;  // the node whose scans are used
@@ -427,7 +510,7 @@ class SlamNodelet : public nodelet::Nodelet {
   ros::Subscriber odom_sub_, imu_sub_;
   ros::Subscriber scan_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
-  ros::WallTimer map_timer_;
+  ros::WallTimer map_timer_, gyro_wait_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;
 };
