@@ -570,6 +570,9 @@ TEST(RobotParams, TheConfigFileHoldsEveryParameterWithItsDefault) {
         },
         named.field);
   }
+  // The nodelet's own keys (read through ROS, not the core) are documented in the same file.
+  for (const std::string& name : rosLayerParamNames())
+    EXPECT_TRUE(yaml[name]) << name << " (read by the SLAM nodelet) missing from config/robot.yaml";
 }
 
 }  // namespace
