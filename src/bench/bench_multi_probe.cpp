@@ -7,7 +7,9 @@
 // the bag's reference poses, mrslam/bench/peer_frame_truth.h), and the bytes each robot put on
 // the link between robots (the compressed share topic; new maps, keyframes apart) per second of
 // the bag's clock: mean over robots, the busiest robot's mean, and the most any robot sent in
-// 10 s of the bag's clock. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
+// 10 s of the bag's clock. Per robot, from its SLAM nodelet's last diagnostics: how long its
+// poses came after their scans arrived (wall s) and how many scans waited for, or went without,
+// the gyro. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
 // (accepted, delay, correct, stale: as the last status said; when not accepted, the merger's
 // attempts and its last reason; when accepted, what led there: when the merger stamped the
 // peer's first map on its own clock, the first try's delay, the tries up to the accept and the
@@ -128,6 +130,17 @@ int main(int argc, char** argv) {
           }
         }));
   }
+  std::map<int, std::map<std::string, std::string>> slam_status;  // robot -> its SLAM nodelet's last values
+  subs.push_back(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        for (const auto& s : m->status) {
+          // The SLAM nodelet's updater names its hardware after the robot's namespace.
+          if (s.name.find("slam") == std::string::npos || s.hardware_id.rfind("/robot", 0) != 0) continue;
+          const int k = std::atoi(s.hardware_id.c_str() + 6);
+          for (const auto& kv : s.values) slam_status[k][kv.key] = kv.value;
+        }
+      }));
   std::map<std::string, uint32_t> share_version;
   std::map<std::string, std::vector<std::pair<double, double>>> share_log;  // (bag s, bytes) per robot
   subs.push_back(nh.subscribe<mrslam::CompressedMapShare>("/mrslam/map_share_z", 100, [&](const mrslam::CompressedMapShare::ConstPtr& m) {
@@ -152,6 +165,12 @@ int main(int argc, char** argv) {
     world[k] = mrslam::bench::frameInWorld(tracks[k], 20, &rms[k]);
     std::printf("poses_robot%d=%zu\n", k, tracks[k].estimate.size());
     if (world[k]) std::printf("truth_fit_rms_robot%d=%.3f\n", k, rms[k]);
+    auto& v = slam_status[k];
+    if (!v.empty())
+      std::printf("slam_robot%d pose_lag_mean_s=%s pose_lag_max_s=%s scans_waited_for_gyro=%s scans_without_gyro=%s\n", k,
+                  v["pose lag behind its scan's arrival, mean of the last 100 (wall s)"].c_str(),
+                  v["pose lag behind its scan's arrival, most ever (wall s)"].c_str(), v["scans that waited for the gyro"].c_str(),
+                  v["scans the gyro did not cover"].c_str());
   }
   int accepted = 0, total = 0, correct = 0, unchecked = 0;
   std::vector<double> delays;

@@ -40,6 +40,7 @@
 
 #include <atomic>
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -225,6 +226,10 @@ class SlamNodelet : public nodelet::Nodelet {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!admissible(*event.getMessage(), event.getPublisherName())) return;
+      scan_arrivals_[event.getMessage().get()] = ros::WallTime::now().toSec();
+      // Scans the tf filter or a later check dropped never come back for theirs: past the cap
+      // entries go (any of them; a lag not recorded is harmless).
+      while (scan_arrivals_.size() > kMaxScanArrivals) scan_arrivals_.erase(scan_arrivals_.begin());
     }
     scan_filter_->add(event);
   }
@@ -338,6 +343,20 @@ class SlamNodelet : public nodelet::Nodelet {
     if (step.odometry_jump) NODELET_WARN_THROTTLE(5.0, "odometry jumped between two scans: the scan says the robot did not move");
     stamps_.push_back(msg->header.stamp);
     publishPose(msg->header.stamp);
+    recordPoseLag(msg.get());
+  }
+
+  // Wall seconds from a scan's arrival to its pose: the waits for odometry and gyro and the
+  // front end (a bag's clock cannot measure it: it lags the scans under load). Kept for the
+  // last kLagWindow scans (mutex_ held).
+  void recordPoseLag(const sensor_msgs::LaserScan* scan) {
+    const auto arrival = scan_arrivals_.find(scan);
+    if (arrival == scan_arrivals_.end()) return;
+    const double lag = ros::WallTime::now().toSec() - arrival->second;
+    scan_arrivals_.erase(arrival);
+    pose_lags_.push_back(lag);
+    if (pose_lags_.size() > kLagWindow) pose_lags_.pop_front();
+    max_pose_lag_ = std::max(max_pose_lag_, lag);
   }
 
   void publishPose(const ros::Time& stamp) {  // mutex_ held
@@ -440,6 +459,13 @@ class SlamNodelet : public nodelet::Nodelet {
       status.add("odometry messages", odometry_messages_);
       status.add("odometry messages with NaN", bad_odometry_);
     }
+    if (!pose_lags_.empty()) {
+      double sum = 0, most = 0;
+      for (double lag : pose_lags_) sum += lag, most = std::max(most, lag);
+      status.add("pose lag behind its scan's arrival, mean of the last 100 (wall s)", sum / pose_lags_.size());
+      status.add("pose lag behind its scan's arrival, most of the last 100 (wall s)", most);
+    }
+    status.add("pose lag behind its scan's arrival, most ever (wall s)", max_pose_lag_);
     status.add("resets (time jumps)", resets_);
     status.add("largest lead of a scan over the clock (s)", clock_lag_);
     status.add("scans refused from a second publisher", impostor_scans_);
@@ -489,6 +515,11 @@ class SlamNodelet : public nodelet::Nodelet {
   std::unique_ptr<slam::FrontEnd> robot_;
   std::optional<Pose2D> last_odom_;
   std::vector<ros::Time> stamps_;  // of every scan the front end used, in order
+  static constexpr size_t kLagWindow = 100;
+  static constexpr size_t kMaxScanArrivals = 200;
+  std::map<const sensor_msgs::LaserScan*, double> scan_arrivals_;  // wall s, of scans not yet used
+  std::deque<double> pose_lags_;   // s, of the last kLagWindow poses
+  double max_pose_lag_ = 0;
   slam::GyroBuffer gyro_;  // input_mutex_
   double gyro_heard_ = 0;  // wall s of the last gyro sample; input_mutex_
   uint64_t published_version_ = ~0ull;
