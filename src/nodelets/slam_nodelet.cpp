@@ -103,7 +103,9 @@ class SlamNodelet : public nodelet::Nodelet {
     map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
     metadata_pub_ = nh.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
     odom_sub_ = nh.subscribe("odom", 100, &SlamNodelet::onOdometry, this);
-    imu_sub_ = nh.subscribe("imu", 500, &SlamNodelet::onImu, this);
+    // 2 s of a 1 kHz gyro: a sample lost to a full queue leaves a gap, and the scan around it
+    // goes without the gyro.
+    imu_sub_ = nh.subscribe("imu", 2000, &SlamNodelet::onImu, this);
     // Scans reach the tf filter only past the checks that need no transform. In the filter's
     // queue a scan that can never be transformed (stamped far ahead) waits until 50 newer ones
     // push it out, holding its memory: 60 scans of 2M rays stamped ahead took a manager from
