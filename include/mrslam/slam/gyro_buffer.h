@@ -11,7 +11,8 @@
 #include <cstddef>
 #include <deque>
 #include <optional>
-#include <utility>
+
+#include "mrslam/slam/simulated_gyro.h"  // GyroSample
 
 namespace mrslam::slam {
 
@@ -28,13 +29,11 @@ class GyroBuffer {
   // The stamp of the newest sample, if any: a scan stamped after it has not all its samples yet.
   std::optional<double> newest() const;
   void clear() { samples_.clear(); }
-  size_t size() const { return samples_.size(); }
-  double maxGap() const { return max_gap_; }
 
  private:
   double max_gap_;
   size_t capacity_;
-  std::deque<std::pair<double, double>> samples_;  // (stamp, rate), time-ordered
+  std::deque<GyroSample> samples_;  // time-ordered
 };
 
 }  // namespace mrslam::slam
