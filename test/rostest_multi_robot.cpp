@@ -57,6 +57,7 @@ struct PeerStatus {
   int version = 0;
   bool current = false;  // the estimate describes both maps as they are now
   bool stale = false;    // nothing heard from the peer for stale_after
+  double link_silent = -2;  // s since data arrived on the connection to the peer (-1: none open; -2: not reported)
   std::string why;       // the merger's message: its last verdict
 };
 
@@ -161,6 +162,7 @@ class MultiRobotTest : public ::testing::Test {
             p.version = std::stoi(v["version"]);
             p.current = v["estimate_current"] == "True";
             p.stale = v["stale"] == "True";
+            if (v.count("link_silent_s")) p.link_silent = std::stod(v["link_silent_s"]);
             p.why = status.message;
             peers[status.name] = p;
           }
@@ -443,6 +445,10 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       for (const auto& m : names)
         if (n != m) {
           EXPECT_FALSE(robots[n].peers[m].stale) << n << " reports " << m << " stale: no keyframes?";
+          // Each robot is its own process: the merger reads its TCP connection to the peer, and
+          // data arrives on it at least every keyframe period (3 s here).
+          EXPECT_GE(robots[n].peers[m].link_silent, 0.0) << n << " measures no link to " << m;
+          EXPECT_LT(robots[n].peers[m].link_silent, 10.0) << n << "'s link to " << m << " silent";
         }
   }
 

@@ -13,6 +13,7 @@
 #include "mrslam/octomap_export.h"
 #include "mrslam/publisher_claim.h"
 #include "mrslam/scan_stamp_gate.h"
+#include "mrslam/tcpros_link.h"
 #include "test_data.h"
 
 namespace mrslam::fusion {
@@ -239,6 +240,33 @@ TEST(PublisherClaim, TheFirstPublisherHoldsANameUntilItFallsSilent) {
   claim.take("/laser_driver_restarted", 6.1);
   EXPECT_EQ(claim.holder(), "/laser_driver_restarted");
   EXPECT_TRUE(claim.heldByAnother("/robot1/laser_driver", 6.2, 5.0));
+}
+
+// The transport info roscpp 1.15 gives a subscriber's TCP connection (TransportTCP), as
+// `rosnode info` printed it on the multi-host harness, and lines that must not be taken for one.
+TEST(TcprosLink, FindsTheSocketOfATcpConnectionAndNothingElse) {
+  const auto s = parseTcprosInfo("TCPROS connection on port 46571 to [10.213.0.3:39211 on socket 57]");
+  ASSERT_TRUE(s);
+  EXPECT_EQ(s->local_port, 46571);
+  EXPECT_EQ(s->fd, 57);
+  const auto v6 = parseTcprosInfo("TCPROS connection on port 40000 to [fe80::1%eth0:39211 on socket 9]");
+  ASSERT_TRUE(v6);
+  EXPECT_EQ(v6->fd, 9);
+  EXPECT_FALSE(parseTcprosInfo("INTRAPROCESS"));
+  EXPECT_FALSE(parseTcprosInfo("UDPROS connection on port 46571 to [10.213.0.3:39211 on socket 57]"));
+  EXPECT_FALSE(parseTcprosInfo("TCPROS connection on port -1 to [10.213.0.3:39211 on socket 57]"));
+  EXPECT_FALSE(parseTcprosInfo("TCPROS connection on port 46571 to [TCPServer Socket]"));
+  EXPECT_FALSE(parseTcprosInfo("TCPROS connection on port 46571 to [10.213.0.3:39211 on socket 57"));
+  EXPECT_FALSE(parseTcprosInfo("TCPROS connection on port 46571 to [10.213.0.3:39211 on socket x]"));
+  EXPECT_FALSE(parseTcprosInfo(""));
+}
+
+// A stale peer whose connection still receives is behind a slow link: left alone.
+TEST(TcprosLink, OnlyALinkWithNothingArrivingIsDead) {
+  EXPECT_TRUE(linkIsDead(std::nullopt, 10.0)) << "no connection open";
+  EXPECT_TRUE(linkIsDead(12.5, 10.0)) << "nothing for longer than stale_after";
+  EXPECT_FALSE(linkIsDead(0.3, 10.0)) << "a map still crossing a slow link";
+  EXPECT_FALSE(linkIsDead(10.0, 10.0));
 }
 
 // Intel's scans as scripts/bench_multi's bags carry them (one every ~3.3 s), played while the

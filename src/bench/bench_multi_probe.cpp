@@ -45,6 +45,7 @@ struct PairStatus {
   mrslam::Pose2D pose;
   bool current = false;  // the estimate was made on both maps as they are now
   bool stale = false;    // the merger has heard nothing from the peer for stale_after
+  double link_silent = -1;  // s since data last arrived on the merger's connection to the peer (-1: none open)
   std::string attempts, why;  // when not accepted: how often the merger tried, and its last reason
   // What led to the first accept: the simulated s from the peer's first map to the merger's
   // first try, the merger's tries up to the accept, and the last reason it rejected before.
@@ -115,6 +116,7 @@ int main(int argc, char** argv) {
             const bool was_accepted = p.accepted;
             p.accepted = v["accepted"] == "True";
             p.stale = v["stale"] == "True";
+            p.link_silent = v.count("link_silent_s") ? std::stod(v["link_silent_s"]) : -1.0;
             p.attempts = v["attempts"];
             p.why = s.message;
             const int tries = std::atoi(p.attempts.c_str());
@@ -178,16 +180,16 @@ int main(int argc, char** argv) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
     if (!value.accepted) {
-      std::printf("pair robot%d <- %s accepted=0 stale=%d attempts=%s why=%s\n", key.first, key.second.c_str(),
-                  value.stale ? 1 : 0, value.attempts.c_str(), value.why.c_str());
+      std::printf("pair robot%d <- %s accepted=0 stale=%d link_silent_s=%.1f attempts=%s why=%s\n", key.first,
+                  key.second.c_str(), value.stale ? 1 : 0, value.link_silent, value.attempts.c_str(), value.why.c_str());
       continue;
     }
     ++accepted, delays.push_back(value.delay);
     const int peer = std::atoi(key.second.c_str() + 5);
     if (!world[key.first] || world.count(peer) == 0 || !world[peer]) {
       ++unchecked;
-      std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d\n", key.first,
-                  key.second.c_str(), value.delay, value.stale ? 1 : 0);
+      std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d link_silent_s=%.1f\n",
+                  key.first, key.second.c_str(), value.delay, value.stale ? 1 : 0, value.link_silent);
       continue;
     }
     const auto e = mrslam::bench::peerFrameError(value.pose, *world[key.first], *world[peer], tracks[peer]);
@@ -198,9 +200,10 @@ int main(int argc, char** argv) {
     // bar of MergeRegressions and of the multi-run truth in bench_merge).
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
-    std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d deg=%.2f cells=%.2f truth_bar_cells=%.2f "
-                "first_map_s=%.1f first_try_s=%.1f tries=%d before=%s\n", key.first, key.second.c_str(), value.delay,
-                right ? 1 : 0, value.stale ? 1 : 0, e.yaw_deg, cells, truth_bar, value.first_map_time, value.first_try,
+    std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d link_silent_s=%.1f deg=%.2f cells=%.2f "
+                "truth_bar_cells=%.2f first_map_s=%.1f first_try_s=%.1f tries=%d before=%s\n", key.first,
+                key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.link_silent, e.yaw_deg, cells,
+                truth_bar, value.first_map_time, value.first_try,
                 value.tries_to_accept, value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
     if (right) {
       ++correct;

@@ -8,8 +8,9 @@
 // fusion/peer_registry.h (static, robotP/map -> robotN/map), merged_map (OccupancyGrid in our
 // map frame, latched), merge_status (diagnostic_msgs/DiagnosticArray, one status per peer:
 // accepted, x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time, and
-// stale: nothing heard from the peer for stale_after s; while a peer is stale the share
-// subscriptions are re-made every stale_after, see reconnectIfStale),
+// stale: nothing heard from the peer for stale_after s; link_silent_s: how long ago data last
+// arrived on the connection to it, -1 when none is open; while a stale peer's link is silent
+// too, the share subscriptions are re-made every stale_after, see watchShareLinks),
 // diagnostics; service ~export_octomap (std_srvs/Trigger) writes the merged map as an OctoMap
 // .bt to the parameter octomap_path.
 //
@@ -50,6 +51,7 @@
 #include "ros_conversions.h"
 #include "ros_params.h"
 #include "share_codec.h"
+#include "share_links.h"
 
 namespace mrslam::nodelets {
 
@@ -113,7 +115,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     diagnostics_->add("map merge", this, &MapMergeNodelet::diagnose);
     diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
       diagnostics_->force_update();
-      reconnectIfStale();
+      watchShareLinks();
     });
     if (!config_problem_.empty()) {
       // merge_status is latched: whoever watches it learns why this robot merges nothing.
@@ -139,30 +141,61 @@ class MapMergeNodelet : public nodelet::Nodelet {
     compressed_share_sub_ = nh.subscribe(share_topics_[1], 20, &MapMergeNodelet::onCompressedShare, this);
   }
 
-  // A peer silent for stale_after is out of range, down, or behind a link that came back while
-  // TCP still backs its retransmissions off (after an outage, the first retry may come as late
-  // as the outage was long). Dropping and re-making the share subscriptions opens fresh
-  // connections to every publisher the master lists, so a returned peer is heard again within
-  // stale_after of its return; at most once per stale_after, and never while nobody is stale.
-  // Healthy peers lose at most the share in flight; their next one (a keyframe at the latest)
-  // arrives on the new connection.
-  void reconnectIfStale() {
+  // A peer silent for stale_after is out of range, down, behind a link that came back while TCP
+  // still backs its retransmissions off (after an outage, the first retry may come as late as
+  // the outage was long), or behind a slow link its map takes longer than stale_after to cross.
+  // The connection's socket tells them apart: data still arriving is a slow link, left alone
+  // (re-made, the map in flight would start again, and on a saturated link never arrive). For
+  // the others, dropping and re-making the share subscriptions opens fresh connections to every
+  // publisher the master lists, so a returned peer is heard again within stale_after of its
+  // return; at most once per stale_after. Healthy peers lose at most the share in flight.
+  void watchShareLinks() {
     const double now = ros::WallTime::now().toSec();
-    std::string silent;
+    std::map<std::string, std::string> holders;  // peer id -> its publisher's node
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (!config_problem_.empty() || now - last_reconnect_ < stale_after_) return;
-      for (const auto& [id, peer] : registry_->peers())
-        if (silentFor(id, now) > stale_after_) silent += (silent.empty() ? "" : ", ") + id;
-      if (silent.empty()) return;
+      if (!config_problem_.empty()) return;
+      for (const auto& [id, peer] : registry_->peers()) holders[id] = owners_[id].holder();
+    }
+    const std::map<std::string, double> silence = shareLinkSilence(share_topics_);
+    std::map<std::string, std::optional<double>> link_silent;
+    for (const auto& [id, node] : holders) {
+      const std::optional<std::string> uri = publisherUri(node);
+      const auto link = uri ? silence.find(*uri) : silence.end();
+      if (link != silence.end()) link_silent[id] = link->second;
+      else link_silent[id] = std::nullopt;
+    }
+    std::string dead;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      link_silent_ = link_silent;
+      for (const auto& [id, link] : link_silent)
+        if (silentFor(id, now) > stale_after_ && linkIsDead(link, stale_after_)) dead += (dead.empty() ? "" : ", ") + id;
+      if (dead.empty() || now - last_reconnect_ < stale_after_) return;
       last_reconnect_ = now;
       ++share_reconnects_;
     }
-    NODELET_WARN_THROTTLE(60.0, "nothing heard from %s for %.0f s (stale): re-making the share subscriptions",
-                          silent.c_str(), stale_after_);
+    forgetPublisherUris();  // a peer that restarted listens on a new port
+    NODELET_WARN_THROTTLE(60.0, "nothing heard from %s for %.0f s, nor on its link (stale): re-making the share subscriptions",
+                          dead.c_str(), stale_after_);
     share_sub_.shutdown();  // the last handle of each topic in this process: its connections close
     compressed_share_sub_.shutdown();
     subscribeShares();
+  }
+
+  // The XML-RPC URI of a peer's publishing node, asked of the master once and kept.
+  std::optional<std::string> publisherUri(const std::string& node) {
+    if (node.empty()) return std::nullopt;
+    std::lock_guard<std::mutex> lock(master_mutex_);
+    const auto known = publisher_uris_.find(node);
+    if (known != publisher_uris_.end()) return known->second;
+    const std::optional<std::string> uri = uriOfNode(node);
+    if (uri) publisher_uris_[node] = *uri;
+    return uri;
+  }
+  void forgetPublisherUris() {
+    std::lock_guard<std::mutex> lock(master_mutex_);
+    publisher_uris_.clear();
   }
 
   // Wall seconds since the peer's last share (mutex_ held).
@@ -505,6 +538,8 @@ class MapMergeNodelet : public nodelet::Nodelet {
       const double silent = silentFor(id, ros::WallTime::now().toSec());
       s.add("heard_s_ago", silent);
       s.add("stale", silent > stale_after_);
+      const auto link = link_silent_.find(id);
+      s.add("link_silent_s", link != link_silent_.end() && link->second ? *link->second : -1.0);
       array->status.push_back(s);
     }
     status_pub_.publish(diagnostic_msgs::DiagnosticArray::ConstPtr(array));
@@ -567,7 +602,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     status.add("peers quarantined", quarantined);
     status.add("shares dropped from quarantined peers", quarantined_shares_);
     status.add("shares refused from impostors", impostor_shares_);
-    status.add("share reconnects (a peer was stale)", share_reconnects_);
+    status.add("share reconnects (a stale peer's link was silent too)", share_reconnects_);
     status.add("last problem", last_problem_);
     // For the zero-copy test: the address of the last own map object received.
     status.add("own map address", std::to_string(own_address_));
@@ -593,8 +628,10 @@ class MapMergeNodelet : public nodelet::Nodelet {
   fusion::PeerQuarantine quarantine_;
   int max_peers_ = 32;
   std::map<std::string, PublisherClaim> owners_;  // who holds each robot id
-  std::mutex master_mutex_;  // guards the master's last answer (onShare threads)
+  std::mutex master_mutex_;  // guards the master's answers (onShare threads, the diagnostics timer)
   std::optional<std::set<std::string>> master_publishers_;
+  std::map<std::string, std::string> publisher_uris_;  // publishing node -> its XML-RPC URI
+  std::map<std::string, std::optional<double>> link_silent_;  // peer id -> s since data arrived on its link
   double master_asked_ = -1e18;
   double owner_timeout_ = 30.0, stale_after_ = 90.0;
   size_t impostor_shares_ = 0, share_reconnects_ = 0;

@@ -1,5 +1,6 @@
-// What the ROS master knows about a topic's publishers (getSystemState). A blocking XML-RPC
-// call: never made while holding a lock a callback needs.
+// What the ROS master knows about a topic's publishers (getSystemState) and where a node
+// listens (lookupNode). Blocking XML-RPC calls: never made while holding a lock a callback
+// needs.
 #pragma once
 
 #include <ros/master.h>
@@ -29,6 +30,20 @@ inline std::optional<std::set<std::string>> publishersOf(const std::vector<std::
       for (int j = 0; j < publishers[i][1].size(); ++j) nodes.insert(static_cast<std::string>(publishers[i][1][j]));
     }
     return nodes;
+  } catch (const XmlRpc::XmlRpcException&) {
+    return std::nullopt;
+  }
+}
+
+// The XML-RPC URI of `node` (a publisher's caller id), or nothing when the master does not know
+// it or cannot be asked.
+inline std::optional<std::string> uriOfNode(const std::string& node) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false)) return std::nullopt;
+  try {
+    return static_cast<std::string>(payload);
   } catch (const XmlRpc::XmlRpcException&) {
     return std::nullopt;
   }
