@@ -208,7 +208,8 @@ TEST(GraphSlam, LoopClosureOnARealLogBeatsTheEkfAlone) {
 // how far odometry itself errs over each increment, keeps the track: before that prior (the
 // EKF's generous sigmas weighed nothing) 40 of 303 steps were lost and the global error 6.6 m.
 // The steps still lost are repaired by loop closures whose windows widen through the poorly
-// matched stretches (drift_factor): here 0.51 m global error before that, 0.41 m with it.
+// matched stretches (drift_factor): here 0.51 m global error before that, 0.41 m with it; 0.28 m
+// (5 steps lost) since the odometry calibration learns from seeded matches too.
 TEST(GraphSlam, EveryThirdIntelScanKeepsTrack) {
   const RobotLog every3 = decimate(intelLog(), 3);
   RobotSlamParams params = defaults();
@@ -283,22 +284,22 @@ TEST(GraphSlam, EveryFifthAcesScanFollowsTheScansWhereIcpCannotConfirm) {
 // corridor from where they were (scores 0.58 and 0.67 in a 5 m window). Each confirmed the
 // other, and the optimum bent a fifth of the map by 10 degrees (global error 2.14 m). A second
 // closure now counts only from a node at least loop_consistency_min_travel further along:
-// neither was confirmed.
-TEST(GraphSlam, TwoNeighbouringNodesFooledByOneCorridorDoNotConfirmEachOther) {
+// neither was confirmed. Since the odometry calibration learns from seeded matches and bends
+// the way driven (odometry_calibration.h), the tracker's poses differ in their last digits and
+// the two nodes no longer fall for that corridor even with the rule off (0.22 m either way; the rule's
+// setting moved none of the 92 runs of the whole logs and their decimations), so this stays a
+// guard on the log that once broke, no longer a proof of the rule.
+TEST(GraphSlam, AcesStartedThreeScansInIsNotBentByOneCorridor) {
   RobotSlamParams params = defaults();
   params.use_imu = false;
-  RobotSlamParams before = params;
-  before.graph.loop_consistency_min_travel = 0;
   // Written and read back as mrslam_convert_log --from 3 and mrslam_slam_log do: the case
-  // turns on the last digits of the poses (in memory it closes either way).
+  // turned on the last digits of the poses (in memory it closed either way).
   const std::string path = ::testing::TempDir() + "/aces_from3.log";
   writeCarmenLog(fromScan(acesLog(), 3), path);
   const RobotLog started_late = readRobotLog(path);
   const double now = decimatedGlobalError(started_late, 1, 0, params);
-  const double old = decimatedGlobalError(started_late, 1, 0, before);
-  std::printf("ACES from scan 3: global error %.2f m (any two closures confirming each other: %.2f m)\n", now, old);
+  std::printf("ACES from scan 3: global error %.2f m\n", now);
   EXPECT_LT(now, 0.4);
-  EXPECT_GT(old, 1.0) << "the test must see the difference";
 }
 
 // How far the local tracker's seeds put the scans, against the reference's step from the pose the
@@ -370,6 +371,9 @@ double turnErrorOverTheSlip(const RobotSlamParams& params) {
 TEST(LocalTracker, ATurnTheOdometryMissedIsFoundByTheSeed) {
   RobotSlamParams params = defaults();
   params.use_imu = false;
+  // Without the odometry calibration: learnt from every match ICP and the seed agree on, it
+  // happens to predict this slip's turn closer, and the window's width would not show.
+  params.odometry_calibration.enabled = false;
   RobotSlamParams narrow = params;
   narrow.seed.min_yaw = 0;
   const double now = turnErrorOverTheSlip(params), before = turnErrorOverTheSlip(narrow);
@@ -483,9 +487,10 @@ double afterFalseClosure(const std::string& solver) {
 TEST(GraphSlam, AnInjectedFalseClosureIsDroppedAndTheMapSurvives) {
   const double ceres = afterFalseClosure("ceres");
   // Why Ceres is the default solver: without a robust loss (MRPT's SPA) the false closure pulls
-  // the optimum so far that true closures are the ones found wrong and dropped.
+  // the optimum so far that true closures are the ones found wrong and dropped (7 of them, and
+  // 0.229 m against Ceres' 0.106 m; 3x before the calibration learnt from seeded matches too).
   const double mrpt = afterFalseClosure("mrpt");
-  EXPECT_GT(mrpt, 3 * ceres);
+  EXPECT_GT(mrpt, 2 * ceres);
 }
 
 TEST(OdometryCalibration, LearnsIntelsTurnDriftFromMatchedSteps) {
@@ -500,8 +505,52 @@ TEST(OdometryCalibration, LearnsIntelsTurnDriftFromMatchedSteps) {
   EXPECT_NEAR(calibration.scale(), 0.96, 0.01);
   EXPECT_NEAR(calibration.yawPerMetre() / kDeg, 3.5, 0.5);
   const Pose2D corrected = calibration.correct({1.0, 0.0, 0.0});
-  EXPECT_NEAR(corrected.x, calibration.scale(), 1e-12);
-  EXPECT_NEAR(corrected.yaw, calibration.yawPerMetre() * 1.0, 1e-12);
+  const double drift = calibration.yawPerMetre() * 1.0;
+  EXPECT_NEAR(corrected.yaw, drift, 1e-12);
+  EXPECT_NEAR(std::hypot(corrected.x, corrected.y), calibration.scale(), 1e-12);
+  EXPECT_NEAR(std::atan2(corrected.y, corrected.x), drift / 2, 1e-12) << "the chord turns by half the drift";
+
+  // Where the drift shows: Intel decimated to every 5th scan (steps of up to 5 m). The corrected
+  // increments end nearer the reference's than the raw ones, and nearer still for the chord
+  // turned by half the drift than for the raw direction (the drift bends the way driven).
+  const RobotLog every5 = decimate(log, 5);
+  double raw_m = 0, straight_m = 0, chord_m = 0;
+  for (size_t k = 1; k < every5.records.size(); ++k) {
+    const Pose2D u = every5.records[k].odometry;
+    const Pose2D truth = every5.records[k - 1].reference.inverse().compose(every5.records[k].reference);
+    const Pose2D chord = calibration.correct(u);
+    const Pose2D straight{calibration.scale() * u.x, calibration.scale() * u.y, chord.yaw};
+    raw_m += std::hypot(u.x - truth.x, u.y - truth.y);
+    straight_m += std::hypot(straight.x - truth.x, straight.y - truth.y);
+    chord_m += std::hypot(chord.x - truth.x, chord.y - truth.y);
+  }
+  const double n = static_cast<double>(every5.records.size() - 1);
+  std::printf("Intel every 5th, mean increment error: raw %.3f m, scaled %.3f m, scaled along the chord %.3f m\n",
+              raw_m / n, straight_m / n, chord_m / n);
+  EXPECT_LT(chord_m, 0.8 * straight_m);
+  EXPECT_LT(chord_m, 0.6 * raw_m);
+}
+
+// Scans metres apart overlap little, so ICP pairs few of their points even where it is right:
+// the calibration learnt only from matches pairing most points (weak_match_goodness), and on
+// Intel at every 5th scan it learnt nothing (0 deg/m), so the 3.5 deg/m drift (15-20 degrees a
+// step) stayed in every prediction. A match the correlative seed and ICP agree on is learnt
+// from too.
+TEST(LocalTracker, LearnsIntelsDriftWhenItsScansAreFarApart) {
+  RobotSlamParams params = defaults();
+  params.use_imu = false;
+  for (int phase = 0; phase < 5; ++phase) {
+    const RobotLog slow = decimate(intelLog(), 5, phase);
+    LocalTracker tracker(params, slow.laser_in_base);
+    for (const LogRecord& r : slow.records) {
+      tracker.addOdometry(r.odometry);
+      tracker.track(r.scan);
+    }
+    std::printf("Intel every 5th, phase %d: learnt %.2f deg/m, scale %.3f\n", phase,
+                tracker.calibration().yawPerMetre() / kDeg, tracker.calibration().scale());
+    EXPECT_NEAR(tracker.calibration().yawPerMetre() / kDeg, 3.5, 0.8) << "phase " << phase;
+    EXPECT_NEAR(tracker.calibration().scale(), 0.96, 0.03) << "phase " << phase;
+  }
 }
 
 TEST(LogWriters, DecimatedLogsKeepTheFullLogsOdometryAndRoundTrip) {

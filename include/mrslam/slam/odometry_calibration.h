@@ -5,9 +5,11 @@
 // truth inside the scan matcher's window when scans are far apart.
 //
 // Recursive least squares with exponential forgetting over the steps the scan matcher matched
-// well: forward distance measured against odometry's (through the origin), and the yaw the
-// match added against the distance driven. Corrections apply once enough has been driven,
-// and stay within bounds (a broken estimate cannot make the prediction absurd).
+// well (pairing most points, or, with from_seeds, confirmed by the correlative seed): forward
+// distance measured against odometry's (through the origin), and the yaw the match added
+// against the distance driven. Corrections apply once enough has been driven, and stay within
+// bounds (a broken estimate cannot make the prediction absurd). The drift bends the way driven,
+// so the corrected increment also turns its chord by half the drift.
 #pragma once
 
 #include "mrslam/grid.h"
@@ -20,6 +22,9 @@ struct OdometryCalibrationParams {
   double min_distance = 10.0;    // m driven (in learnt steps) before corrections apply
   double max_scale_error = 0.15; // |scale - 1| at most
   double max_yaw_per_m = 0.1;    // rad per m at most (5.7 degrees)
+  // Also learn from matches ICP pairs few points of but the correlative seed agrees with
+  // (scans metres apart); otherwise only from matches pairing most points.
+  bool from_seeds = true;
 };
 
 class OdometryCalibration {

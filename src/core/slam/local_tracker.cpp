@@ -227,7 +227,8 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     }
   }
   if (scans_ > 0 && step.matched && !step.odometry_jump && !step.odometry_slipped && !step.odometry_reversed &&
-      step.match.goodness >= params_.graph.weak_match_goodness)
+      (step.match.goodness >= params_.graph.weak_match_goodness ||
+       (params_.odometry_calibration.from_seeds && step.seeded && seedConfirms(step))))
     calibration_.learn(raw, before.inverse().compose(ekf_.pose()));
   matcher_.addIfKey(scan, ekf_.pose());
   ++scans_;

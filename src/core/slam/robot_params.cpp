@@ -80,6 +80,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"odometry_calibration_min_distance", &p.odometry_calibration.min_distance},
       {"odometry_calibration_max_scale_error", &p.odometry_calibration.max_scale_error},
       {"odometry_calibration_max_yaw_per_m", &p.odometry_calibration.max_yaw_per_m},
+      {"odometry_calibration_from_seeds", &p.odometry_calibration.from_seeds},
       {"loop_closure", &p.loop_closure},
       {"graph_node_distance", &graph.node_distance},
       {"graph_node_angle", &graph.node_angle},
