@@ -162,8 +162,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     for (const auto& [id, node] : holders) {
       const std::optional<std::string> uri = publisherUri(node);
       const auto link = uri ? silence.find(*uri) : silence.end();
-      if (link != silence.end()) link_silent[id] = link->second;
-      else link_silent[id] = std::nullopt;
+      link_silent[id] = link != silence.end() ? std::optional<double>(link->second) : std::nullopt;
     }
     std::string dead;
     {

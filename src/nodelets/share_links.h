@@ -34,9 +34,6 @@ inline int localPortOf(int fd) {
   return -1;
 }
 
-// Seconds since data last arrived from each publisher (by its XML-RPC URI) of any of `topics`,
-// over the freshest of its TCP connections. Publishers without an open TCP connection are
-// missing; so are connections whose socket cannot be read (then nothing is known of them).
 // This node's connections as its XML-RPC server lists them (a call over the loopback to the
 // server's own thread), or an empty list.
 inline XmlRpc::XmlRpcValue ownBusInfo() {
@@ -57,6 +54,9 @@ inline XmlRpc::XmlRpcValue ownBusInfo() {
   return info;
 }
 
+// Seconds since data last arrived from each publisher (by its XML-RPC URI) of any of `topics`,
+// over the freshest of its TCP connections. Publishers without an open TCP connection are
+// missing; so are connections whose socket cannot be read (then nothing is known of them).
 inline std::map<std::string, double> shareLinkSilence(const std::vector<std::string>& topics) {
   XmlRpc::XmlRpcValue info = ownBusInfo();
   std::map<std::string, double> silence;
