@@ -190,6 +190,26 @@ TEST(ScanMatching, RealConsecutiveIntelScansAlignToTheReference) {
   EXPECT_LT(icp_yaw_error, odometry_yaw_error / 2);
 }
 
+TEST(ScanMatching, TheLocalMapWithinAPathHoldsTheNewestKeysUpToThatPath) {
+  const LogRecord& r = intelLog().records[10];
+  ScanToMapMatcher matcher(ScanMatcherParams{}, intelLog().laser_in_base);
+  // Key scans along x and back again (an earlier visit of the place): path from the newest
+  // key 0, 5, 15, 25 and 35 m.
+  for (double x : {0.0, 10.0, 20.0, 10.0, 5.0}) ASSERT_TRUE(matcher.addIfKey(r.scan, Pose2D{x, 0, 0}));
+  const auto all = matcher.localPoints();
+  const size_t per_key = all.size() / 5;
+  ASSERT_EQ(all.size(), 5 * per_key);
+  EXPECT_EQ(matcher.pointsWithinPath(0).size(), all.size());  // off: every key scan
+  EXPECT_EQ(matcher.pointsWithinPath(-1).size(), all.size());
+  EXPECT_EQ(matcher.pointsWithinPath(std::nan("")).size(), all.size());
+  EXPECT_EQ(matcher.pointsWithinPath(15).size(), 3 * per_key);
+  EXPECT_EQ(matcher.pointsWithinPath(34.9).size(), 4 * per_key);
+  EXPECT_EQ(matcher.pointsWithinPath(35).size(), 5 * per_key);
+  // The newest key always, even beyond the path: the one at x = 5.
+  const std::vector<std::pair<float, float>> newest(all.end() - static_cast<long>(per_key), all.end());
+  EXPECT_EQ(matcher.pointsWithinPath(1), newest);
+}
+
 TEST(GridMapper, RealScanMarksWallsOccupiedAndRaysFree) {
   const LogRecord& r = intelLog().records[10];
   GridMapper mapper(GridMapperParams{}, Pose2D{});

@@ -67,6 +67,10 @@ struct SeedParams {
                                  // one facing unmapped space along a corridor)
   double resolution = 0.05;      // m, of the likelihood grid
   double sigma = 0.05;           // m, likelihood kernel
+  // m: the search sees the key scans within this much path of the newest (<= 0: all): at slow
+  // scan rates the counted key scans reach back to an earlier visit of the place, drawn with
+  // that time's drift, and revisits are the loop closer's to verify (config/robot.yaml)
+  double local_path = 60.0;
   double icp_correspondence = 0.15;  // m: ICP after a seed pairs points this close at first
   double confirm_xy = 0.1;           // m: ICP ending this close to the seed...
   double confirm_yaw = 0.035;        // rad: ...and this (2 degrees) confirms it, and the match

@@ -79,6 +79,9 @@ class ScanToMapMatcher {
   void clear();
   // The returns of all key scans in the map frame, and a counter that changes with them.
   std::vector<std::pair<float, float>> localPoints() const;
+  // The returns of the key scans within `max_path` metres of path (key to key) from the newest
+  // one, which is always included; all of them unless `max_path` > 0.
+  std::vector<std::pair<float, float>> pointsWithinPath(double max_path) const;
   uint64_t version() const { return version_; }
 
  private:

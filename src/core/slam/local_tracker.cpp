@@ -45,8 +45,9 @@ bool LocalTracker::doubted(const Pose2D& u, double stamp) const {
 
 const LikelihoodGrid& LocalTracker::seedGrid() {
   if (!seed_matcher_ || seed_version_ != matcher_.version()) {
-    auto grid = std::make_shared<const LikelihoodGrid>(matcher_.localPoints(), params_.seed.resolution,
-                                                       params_.seed.sigma, params_.seed.max_xy);
+    const SeedParams& sp = params_.seed;
+    auto grid = std::make_shared<const LikelihoodGrid>(matcher_.pointsWithinPath(sp.local_path), sp.resolution, sp.sigma,
+                                                       sp.max_xy);
     seed_matcher_ = std::make_unique<CorrelativeMatcher>(grid, 5);
     seed_version_ = matcher_.version();
   }

@@ -68,6 +68,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"seed_reverse_max_distance", &seed.reverse_max_distance},
       {"seed_resolution", &seed.resolution},
       {"seed_sigma", &seed.sigma},
+      {"seed_local_path", &seed.local_path},
       {"seed_icp_correspondence", &seed.icp_correspondence},
       {"seed_confirm_xy", &seed.confirm_xy},
       {"seed_confirm_yaw", &seed.confirm_yaw},

@@ -95,6 +95,18 @@ std::vector<std::pair<float, float>> ScanToMapMatcher::localPoints() const {
   return points;
 }
 
+std::vector<std::pair<float, float>> ScanToMapMatcher::pointsWithinPath(double max_path) const {
+  if (!(max_path > 0)) return localPoints();
+  std::vector<std::pair<float, float>> points;
+  double path = 0;
+  for (auto key = keys_.rbegin(); key != keys_.rend() && path <= max_path; ++key) {
+    points.insert(points.end(), key->second.begin(), key->second.end());
+    const auto older = std::next(key);
+    if (older != keys_.rend()) path += std::hypot(key->first.x - older->first.x, key->first.y - older->first.y);
+  }
+  return points;
+}
+
 ScanMatch ScanToMapMatcher::match(const LaserScan& scan, const Pose2D& guess, double max_correspondence) const {
   if (keys_.empty()) {
     ScanMatch result;
