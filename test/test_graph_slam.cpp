@@ -1,14 +1,16 @@
 // The pose-graph front end on real data: the likelihood grid stamping each cell once, the
 // correlative matcher's branch and bound against an exhaustive search, the local tracker's
-// seeds (their prior along the direction driven, their window when the odometry missed a
-// turn), both pose-graph solvers, loop closure on a real log (better than the EKF alone), a
-// false closure injected and dropped, two neighbouring nodes fooled by one corridor not
-// confirming each other, the odometry calibration, log writing and decimation, free space from
-// no-return beams, and config/robot.yaml as the one list of defaults.
+// seeds (their prior along the direction driven, the key scans they see, their window when
+// the odometry missed a turn), both pose-graph solvers, loop closure on a real log (better
+// than the EKF alone), a false closure injected and dropped, two neighbouring nodes fooled by
+// one corridor not confirming each other, the odometry calibration, log writing and
+// decimation, free space from no-return beams, and config/robot.yaml as the one list of
+// defaults.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstdio>
+#include <functional>
 #include <set>
 #include <variant>
 
@@ -339,20 +341,28 @@ const SeedErrors& acesEvery5thSeeds() {
   return errors;
 }
 
+// The defaults' seeds over ACES every 5th scan against those with `change` made, printed side
+// by side: {defaults, changed}.
+std::pair<SeedErrors, SeedErrors> acesEvery5thSeedsAgainst(const std::function<void(RobotSlamParams&)>& change,
+                                                           const char* changed_label) {
+  RobotSlamParams changed = defaults();
+  changed.use_imu = false;
+  change(changed);
+  const SeedErrors& now = acesEvery5thSeeds();
+  const SeedErrors before = seedErrors(acesLog(), 5, changed);
+  std::printf("ACES every 5th, all phases: %d of %d seeds more than 0.3 m off, mean %.3f m (%s: %d of %d, %.3f m)\n",
+              now.far_off, now.seeds, now.mean_m, changed_label, before.far_off, before.seeds, before.mean_m);
+  return {now, before};
+}
+
 // Scans metres apart along a corridor fit about as well anywhere along it, and the best of those
 // poses slid the correlative seed up to 1 m from a prediction 0.1-0.2 m off (ACES every 5th scan,
 // 5 m steps). Odometry knows how far it drove far better than where it went: a tighter prior
 // along the direction driven keeps the seeds there, while across it and in heading the scan
 // still decides.
 TEST(LocalTracker, SeedsKeepTheDistanceOdometryDroveAlongCorridors) {
-  RobotSlamParams params = defaults();
-  params.use_imu = false;
-  RobotSlamParams isotropic = params;
-  isotropic.seed.prior_sigma_along = 0;
-  const SeedErrors& now = acesEvery5thSeeds();
-  const SeedErrors before = seedErrors(acesLog(), 5, isotropic);
-  std::printf("ACES every 5th, all phases: %d of %d seeds more than 0.3 m off, mean %.3f m (isotropic prior: %d of %d, "
-              "%.3f m)\n", now.far_off, now.seeds, now.mean_m, before.far_off, before.seeds, before.mean_m);
+  const auto [now, before] =
+      acesEvery5thSeedsAgainst([](RobotSlamParams& p) { p.seed.prior_sigma_along = 0; }, "isotropic prior");
   EXPECT_LT(now.mean_m, 0.115);
   EXPECT_LT(4 * now.far_off, 3 * before.far_off) << "the test must see the difference";
   EXPECT_GT(before.mean_m, now.mean_m + 0.015) << "the test must see the difference";
@@ -363,14 +373,7 @@ TEST(LocalTracker, SeedsKeepTheDistanceOdometryDroveAlongCorridors) {
 // snapped onto it under odometry 0.1 m off: a jump across the corridor the map kept. The search
 // now sees the last seed_local_path metres of key scans; revisits are the loop closer's.
 TEST(LocalTracker, SeedsDoNotSnapOntoAnEarlierVisitOfThePlace) {
-  RobotSlamParams params = defaults();
-  params.use_imu = false;
-  RobotSlamParams every_key = params;
-  every_key.seed.local_path = 0;
-  const SeedErrors& now = acesEvery5thSeeds();
-  const SeedErrors before = seedErrors(acesLog(), 5, every_key);
-  std::printf("ACES every 5th, all phases: %d of %d seeds more than 0.3 m off, mean %.3f m (every key scan: %d of %d, "
-              "%.3f m)\n", now.far_off, now.seeds, now.mean_m, before.far_off, before.seeds, before.mean_m);
+  const auto [now, before] = acesEvery5thSeedsAgainst([](RobotSlamParams& p) { p.seed.local_path = 0; }, "every key scan");
   EXPECT_LT(2 * now.far_off, before.far_off) << "the test must see the difference";
   EXPECT_LT(now.mean_m + 0.01, before.mean_m);
 }
