@@ -106,6 +106,8 @@ struct GraphParams {
   int loop_max_candidates = 3;           // nearest submaps tried per node
   double loop_view_distance = 4.0;       // m: submaps whose poses are this far beyond the window
                                          // still share what the node sees
+  bool loop_older_nodes = true;          // a finished submap is also searched for the older nodes
+                                         // among its poses (graph_slam.h)
   double loop_resolution = 0.05;         // m, of the submaps' likelihood grids
   double loop_sigma = 0.05;              // m, likelihood kernel
   double loop_min_score = 0.55;          // mean likelihood of the node's points at the match

@@ -2,8 +2,11 @@
 //
 // The paper's cascaded EKF stays the local tracker; its poses are the odometry of a graph whose
 // nodes are key scans (every node_distance / node_angle). Consecutive nodes are joined by the
-// tracker's motion; every new node is searched against older finished submaps (loop_closer.h)
-// and each closure found becomes an edge with a robust loss. The graph is optimised (Ceres by
+// tracker's motion; every new node is searched against older finished submaps (loop_closer.h),
+// and every submap when it is finished against the older nodes among its poses (as Cartographer
+// matches nodes and submaps both ways: a stretch the tracker drew badly before the robot came
+// back is only found from the return's submap); each closure found becomes an edge with a
+// robust loss. The graph is optimised (Ceres by
 // default) whenever closures are added; a closure whose error at the optimum exceeds
 // loop_outlier_chi2 is dropped and the graph optimised again, so one wrong closure cannot wreck
 // the map. A closure that would move the graph further than loop_confirm_xy / _yaw from what
@@ -63,7 +66,8 @@ class GraphSlam : public FrontEnd {
   struct Closure {         // a loop closure: node `to` at `measurement` in the frame of `from`
     int from = 0, to = 0;
     Pose2D measurement;
-    double travel = 0;     // when it was found
+    double travel = 0;       // of node `to`: closures from nodes this far apart are independent views
+    double found_at = 0;     // travel when it was found (a pending closure expires after loop_confirm_travel)
   };
   struct ScanRef {        // a scan's pose is poses_[node] o offset
     int node = 0;
@@ -74,12 +78,19 @@ class GraphSlam : public FrontEnd {
   void addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step);
   Submap& activeSubmap();
   void closeLoops(int node, ScanStep& step);
+  // Older nodes against the submap just finished: a node the tracker placed badly before the
+  // robot came back (the start of a run, a lost stretch) is tied to what the return drew.
+  void closeLoopsOfOlderNodes(int submap, ScanStep& step);
+  // Admits the closures found (node `to` against the submap's node nearest the match) and
+  // optimises when one disagrees with the graph.
+  void addClosures(const std::vector<std::pair<int, LoopClosure>>& found, ScanStep& step);
   // The closures to add now: `c` itself when it agrees with the graph, `c` and an earlier
   // pending closure when the two agree with each other, else none (`c` waits).
   std::vector<Closure> admit(const Closure& c);
   bool agreesWithGraph(const Closure& c) const;
   bool consistent(const Closure& a, const Closure& b) const;
   void expirePending();
+  double loopLength() const;  // a closure's length in graphDistances
   PoseGraphEdge odometryEdge(int from, int to, bool weak) const;
   PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
   // Optimises; drops closures the optimum disagrees with. True when the poses moved.

@@ -46,6 +46,14 @@ class LoopCloser {
   // rejections into `stats`.
   std::vector<LoopClosure> search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
                                   const std::vector<Pose2D>& anchor_poses, FrontEndStats& stats);
+  // The node against one submap (`distance` m away through the graph), as search() tries each
+  // candidate; the reverse search (older nodes against a newly finished submap) uses it alone.
+  std::optional<LoopClosure> tryClosure(const LoopQuery& query, int index, const Submap& submap,
+                                        const Pose2D& anchor_pose, double distance, FrontEndStats& stats);
+  // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it), and
+  // whether that is near enough for the window at `distance` to reach what the node sees.
+  double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
+  bool inReach(double beyond, double distance) const;
   void clear() { cache_.clear(); }
   // The search window for poses `distance` m apart through the graph: (xy m, yaw rad).
   std::pair<double, double> window(double distance) const;
@@ -59,8 +67,6 @@ class LoopCloser {
     uint64_t used = 0;
   };
   const Matchers& matchersOf(int index, const Submap& submap);
-  std::optional<LoopClosure> tryClosure(const LoopQuery& query, int index, const Submap& submap,
-                                        const Pose2D& anchor_pose, double distance, FrontEndStats& stats);
 
   GraphParams params_;
   ScanMatcherParams icp_params_;

@@ -63,5 +63,8 @@ double edgeChi2(const std::vector<Pose2D>& poses, const PoseGraphEdge& edge);
 // per node.
 std::vector<double> graphDistances(int nodes, const std::vector<PoseGraphEdge>& edges, int source, double loop_length,
                                    double cutoff);
+// The same from the nearest of several sources (a submap's nodes).
+std::vector<double> graphDistances(int nodes, const std::vector<PoseGraphEdge>& edges, const std::vector<int>& sources,
+                                   double loop_length, double cutoff);
 
 }  // namespace mrslam::slam

@@ -9,6 +9,7 @@ namespace mrslam::slam {
 
 namespace {
 constexpr int kMaxOutlierRounds = 3;  // optimise, drop the closures the optimum disagrees with, repeat
+constexpr int kTiedNeighbours = 5;    // nodes either side of one tied to a submap count as tied to it
 }  // namespace
 
 GraphSlam::GraphSlam(const RobotSlamParams& params, const Pose2D& laser_in_base)
@@ -86,8 +87,9 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanS
   nodes_.push_back(std::move(node));
   if (n > 0) edges_.push_back(odometryEdge(n - 1, n, weak_since_node_));
   weak_since_node_ = false;
+  int finished = -1;
   if (submaps_.empty() || activeSubmap().nodes() >= params_.graph.submap_nodes) {
-    if (!submaps_.empty()) activeSubmap().finish(travel_);
+    if (!submaps_.empty()) activeSubmap().finish(travel_), finished = static_cast<int>(submaps_.size()) - 1;
     submaps_.push_back(std::make_unique<Submap>(n, params_.grid, tracker_.laserInBase()));
     ++stats_.submaps;
   }
@@ -95,6 +97,9 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanS
   ++stats_.nodes;
   step.new_node = true;
   if (params_.loop_closure) closeLoops(n, step);
+  if (params_.loop_closure && params_.graph.loop_older_nodes && finished >= 0) closeLoopsOfOlderNodes(finished, step);
+  if (unoptimized_closures_ > 0 && ++nodes_since_optimization_ >= params_.graph.optimize_every)
+    step.map_moved = optimize() || step.map_moved;
 }
 
 void GraphSlam::closeLoops(int n, ScanStep& step) {
@@ -102,18 +107,51 @@ void GraphSlam::closeLoops(int n, ScanStep& step) {
   std::vector<Pose2D> anchor_poses;
   anchor_poses.reserve(submaps_.size());
   for (const auto& s : submaps_) anchor_poses.push_back(poses_[s->anchor()]);
-  const double loop_length = params_.graph.loop_sigma_xy / std::max(1e-6, params_.graph.loop_window_xy_per_m);
   const LoopQuery query{nodes_[n].points, poses_[n], travel_,
-                        graphDistances(static_cast<int>(nodes_.size()), edges_, n, loop_length, closer_.saturationDistance())};
-  const std::vector<LoopClosure> closures = closer_.search(query, submaps_, anchor_poses, stats_);
+                        graphDistances(static_cast<int>(nodes_.size()), edges_, n, loopLength(), closer_.saturationDistance())};
+  std::vector<std::pair<int, LoopClosure>> found;
+  for (const LoopClosure& c : closer_.search(query, submaps_, anchor_poses, stats_)) found.emplace_back(n, c);
   stats_.loop_search_ms += msSince(start);
   expirePending();
+  addClosures(found, step);
+}
+
+void GraphSlam::closeLoopsOfOlderNodes(int index, ScanStep& step) {
+  const auto start = std::chrono::steady_clock::now();
+  const Submap& submap = *submaps_[index];
+  std::vector<int> members;
+  for (const auto& [node, pose] : submap.nodeList()) members.push_back(node);
+  const std::vector<double> distance =
+      graphDistances(static_cast<int>(nodes_.size()), edges_, members, loopLength(), closer_.saturationDistance());
+  // Nodes near one a closure already ties to this submap are not searched again: the forward
+  // search found that stretch from the submap's side.
+  std::vector<char> tied(nodes_.size(), 0);
+  for (const PoseGraphEdge& e : edges_)
+    if (e.loop_closure && e.to >= members.front() && e.to <= members.back())
+      for (int k = std::max(0, e.from - kTiedNeighbours); k <= std::min(e.from + kTiedNeighbours, members.front() - 1); ++k)
+        tied[static_cast<size_t>(k)] = 1;
+  const Pose2D& anchor_pose = poses_[submap.anchor()];
+  const double newest_travel = nodes_[submap.anchor()].travel - params_.graph.loop_min_travel;
+  std::vector<std::pair<int, LoopClosure>> found;
+  for (int m = 0; m < submap.anchor() && nodes_[m].travel <= newest_travel; ++m) {
+    // Only nodes among the submap's own poses (within the window, no view distance): every old
+    // node near enough to see part of it would cost as much again as the forward search.
+    if (tied[static_cast<size_t>(m)] || closer_.beyond(submap, anchor_pose, poses_[m]) > closer_.window(distance[m]).first)
+      continue;
+    const LoopQuery query{nodes_[m].points, poses_[m], nodes_[m].travel, distance};
+    if (auto c = closer_.tryClosure(query, index, submap, anchor_pose, distance[m], stats_)) found.emplace_back(m, *c);
+  }
+  stats_.loop_search_ms += msSince(start);
+  addClosures(found, step);
+}
+
+void GraphSlam::addClosures(const std::vector<std::pair<int, LoopClosure>>& found, ScanStep& step) {
   int accepted = 0;
-  for (const LoopClosure& c : closures) {
+  for (const auto& [node, c] : found) {
     // Relative to the submap's node nearest to the match: the submap holds the tracker's drift
     // since its anchor, the nearest node only what drifted between it and the match.
     const auto& [near, near_in_anchor] = submaps_[c.submap]->nearestNode(c.pose.x, c.pose.y);
-    const Closure closure{near, n, near_in_anchor.inverse().compose(c.pose), travel_};
+    const Closure closure{near, node, near_in_anchor.inverse().compose(c.pose), nodes_[node].travel, travel_};
     for (const Closure& confirmed : admit(closure)) {
       edges_.push_back(loopEdge(confirmed.from, confirmed.to, confirmed.measurement));
       ++accepted;
@@ -121,18 +159,18 @@ void GraphSlam::closeLoops(int n, ScanStep& step) {
   }
   if (accepted > 0) {
     stats_.loop_accepted += accepted;
-    step.loop_closures = accepted;
+    step.loop_closures += accepted;
     // Closures the graph already agrees with can wait: the graph is optimised when one
     // disagrees, or every optimize_every nodes (and by finish()).
     double worst = 0;
     for (size_t i = edges_.size() - accepted; i < edges_.size(); ++i) worst = std::max(worst, edgeChi2(poses_, edges_[i]));
     unoptimized_closures_ += accepted;
-    if (worst > params_.graph.optimize_chi2) {
-      step.map_moved = optimize();
-      return;
-    }
+    if (worst > params_.graph.optimize_chi2) step.map_moved = optimize() || step.map_moved;
   }
-  if (unoptimized_closures_ > 0 && ++nodes_since_optimization_ >= params_.graph.optimize_every) step.map_moved = optimize();
+}
+
+double GraphSlam::loopLength() const {
+  return params_.graph.loop_sigma_xy / std::max(1e-6, params_.graph.loop_window_xy_per_m);
 }
 
 void GraphSlam::finish() {
@@ -180,7 +218,7 @@ std::vector<GraphSlam::Closure> GraphSlam::admit(const Closure& c) {
 void GraphSlam::expirePending() {
   const size_t before = pending_.size();
   pending_.erase(std::remove_if(pending_.begin(), pending_.end(),
-                                [&](const Closure& c) { return travel_ - c.travel > params_.graph.loop_confirm_travel; }),
+                                [&](const Closure& c) { return travel_ - c.found_at > params_.graph.loop_confirm_travel; }),
                  pending_.end());
   stats_.loop_unconfirmed += before - pending_.size();
 }

@@ -87,6 +87,18 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const LoopQuery& query, int in
   return LoopClosure{index, refined.pose, score, rival.found ? rival.score : 0.0};
 }
 
+double LoopCloser::beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const {
+  double cx, cy, radius;
+  submap.poseCircle(cx, cy, radius);
+  double x, y;
+  anchor_pose.apply(cx, cy, x, y);
+  return std::hypot(x - pose.x, y - pose.y) - radius;
+}
+
+bool LoopCloser::inReach(double beyond, double distance) const {
+  return beyond <= window(distance).first + params_.loop_view_distance;
+}
+
 std::vector<LoopClosure> LoopCloser::search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
                                             const std::vector<Pose2D>& anchor_poses, FrontEndStats& stats) {
   struct Near {
@@ -100,12 +112,8 @@ std::vector<LoopClosure> LoopCloser::search(const LoopQuery& query, const std::v
     if (!s.finished() || s.finishedAtTravel() > query.travel - params_.loop_min_travel) continue;
     double distance = std::numeric_limits<double>::infinity();
     for (const auto& [node, pose] : s.nodeList()) distance = std::min(distance, query.graph_distance[node]);
-    double cx, cy, radius;
-    s.poseCircle(cx, cy, radius);
-    double x, y;
-    anchor_poses[i].apply(cx, cy, x, y);
-    const double beyond = std::hypot(x - query.pose.x, y - query.pose.y) - radius;
-    if (beyond <= window(distance).first + params_.loop_view_distance) near.push_back({beyond, distance, static_cast<int>(i)});
+    const double away = beyond(s, anchor_poses[i], query.pose);
+    if (inReach(away, distance)) near.push_back({away, distance, static_cast<int>(i)});
   }
   std::sort(near.begin(), near.end(), [](const Near& a, const Near& b) { return a.beyond < b.beyond; });
   std::vector<LoopClosure> closures;

@@ -89,9 +89,13 @@ double edgeChi2(const std::vector<Pose2D>& poses, const PoseGraphEdge& edge) {
 
 std::vector<double> graphDistances(int nodes, const std::vector<PoseGraphEdge>& edges, int source, double loop_length,
                                    double cutoff) {
+  return graphDistances(nodes, edges, std::vector<int>{source}, loop_length, cutoff);
+}
+
+std::vector<double> graphDistances(int nodes, const std::vector<PoseGraphEdge>& edges, const std::vector<int>& sources,
+                                   double loop_length, double cutoff) {
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<double> distance(static_cast<size_t>(std::max(0, nodes)), inf);
-  if (source < 0 || source >= nodes) return distance;
   std::vector<std::vector<std::pair<int, double>>> adjacent(distance.size());
   for (const PoseGraphEdge& e : edges) {
     if (e.from < 0 || e.to < 0 || e.from >= nodes || e.to >= nodes) continue;
@@ -101,8 +105,8 @@ std::vector<double> graphDistances(int nodes, const std::vector<PoseGraphEdge>& 
   }
   using Entry = std::pair<double, int>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
-  distance[source] = 0;
-  open.emplace(0.0, source);
+  for (const int source : sources)
+    if (source >= 0 && source < nodes) distance[source] = 0, open.emplace(0.0, source);
   while (!open.empty()) {
     const auto [d, node] = open.top();
     open.pop();

@@ -102,6 +102,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"loop_window_yaw_max", &graph.loop_window_yaw_max},
       {"loop_max_candidates", &graph.loop_max_candidates},
       {"loop_view_distance", &graph.loop_view_distance},
+      {"loop_older_nodes", &graph.loop_older_nodes},
       {"loop_resolution", &graph.loop_resolution},
       {"loop_sigma", &graph.loop_sigma},
       {"loop_min_score", &graph.loop_min_score},
