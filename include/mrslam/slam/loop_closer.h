@@ -55,6 +55,8 @@ class LoopCloser {
   double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
   bool inReach(double beyond, double distance) const;
   void clear() { cache_.clear(); }
+  // Drops the submap's matchers (built again when next needed).
+  void forget(int index) { cache_.erase(index); }
   // The search window for poses `distance` m apart through the graph: (xy m, yaw rad).
   std::pair<double, double> window(double distance) const;
   // The graph distance beyond which the window no longer grows.

@@ -141,6 +141,9 @@ void GraphSlam::closeLoopsOfOlderNodes(int index, ScanStep& step) {
     const LoopQuery query{nodes_[m].points, poses_[m], nodes_[m].travel, distance};
     if (auto c = closer_.tryClosure(query, index, submap, anchor_pose, distance[m], stats_)) found.emplace_back(m, *c);
   }
+  // New nodes reach this submap only loop_min_travel later: its grids need not stay in memory
+  // beside the older submaps' until then (ACES peaked 11 MB higher, over 300 MB, with them kept).
+  closer_.forget(index);
   stats_.loop_search_ms += msSince(start);
   addClosures(found, step);
 }
