@@ -214,6 +214,26 @@ TEST(GraphSlam, LoopClosureOnARealLogBeatsTheEkfAlone) {
   EXPECT_LT(local_graph.trans_mean, 0.04);
 }
 
+// The graph front end run over a whole log: its trajectory and the log's reference poses.
+struct GraphRun {
+  std::vector<Pose2D> trajectory, reference;
+  std::vector<PoseGraphEdge> edges;
+  FrontEndStats stats;
+};
+
+GraphRun runGraph(const RobotLog& log, const RobotSlamParams& params) {
+  GraphSlam slam(params, log.laser_in_base);
+  GraphRun run;
+  for (const LogRecord& r : log.records) {
+    slam.addOdometry(r.odometry);
+    slam.processScan(r.scan);
+    run.reference.push_back(r.reference);
+  }
+  slam.finish();
+  run.trajectory = slam.trajectory(), run.edges = slam.edges(), run.stats = slam.stats();
+  return run;
+}
+
 // Closures both ways: a finished submap is also searched for the older nodes among its poses
 // (loop_older_nodes). The forward search only tries a new node against the older submaps near
 // it, so a stretch drawn before the robot came back is tied to the map only where a return's
@@ -222,22 +242,15 @@ TEST(GraphSlam, LoopClosureOnARealLogBeatsTheEkfAlone) {
 // 0.156 -> 0.140 m; ACES 0.226 -> 0.212 m).
 TEST(GraphSlam, OlderNodesAreTiedToTheSubmapsOfTheReturn) {
   const RobotLog& log = intelLog();
-  std::vector<Pose2D> reference;
-  for (const LogRecord& r : log.records) reference.push_back(r.reference);
-  const auto pairs = bench::randomPairs(reference.size(), 500, 2009);
+  const auto pairs = bench::randomPairs(log.records.size(), 500, 2009);
   auto run = [&](bool older_nodes, int& older_closures) {
     RobotSlamParams params = defaults();
     params.use_imu = false;
     params.graph.loop_older_nodes = older_nodes;
-    GraphSlam slam(params, log.laser_in_base);
-    for (const LogRecord& r : log.records) {
-      slam.addOdometry(r.odometry);
-      slam.processScan(r.scan);
-    }
-    slam.finish();
+    const GraphRun graph = runGraph(log, params);
     older_closures = 0;  // a forward closure runs from an older node to a newer one, a reverse one back
-    for (const PoseGraphEdge& e : slam.edges()) older_closures += e.loop_closure && e.from > e.to;
-    return bench::relationError(slam.trajectory(), reference, pairs).trans_mean;
+    for (const PoseGraphEdge& e : graph.edges) older_closures += e.loop_closure && e.from > e.to;
+    return bench::relationError(graph.trajectory, graph.reference, pairs).trans_mean;
   };
   int without_count = 0, with_count = 0;
   const double without = run(false, without_count), with = run(true, with_count);
@@ -261,18 +274,11 @@ TEST(GraphSlam, AStartTheTrackerCouldNotMatchIsFoundWhenTheRobotReturns) {
     RobotSlamParams params = defaults();
     params.use_imu = false;
     params.graph.loop_lone_window_xy = lone_xy, params.graph.loop_lone_window_yaw = lone_yaw;
-    GraphSlam slam(params, every5.laser_in_base);
-    std::vector<Pose2D> reference;
-    for (const LogRecord& r : every5.records) {
-      slam.addOdometry(r.odometry);
-      slam.processScan(r.scan);
-      reference.push_back(r.reference);
-    }
-    slam.finish();
+    const GraphRun graph = runGraph(every5, params);
     std::vector<std::pair<size_t, size_t>> start_to_rest;  // the first five scans against every later one
     for (size_t i = 0; i < 5; ++i)
-      for (size_t j = 5; j < reference.size(); ++j) start_to_rest.emplace_back(i, j);
-    return bench::relationError(slam.trajectory(), reference, start_to_rest);
+      for (size_t j = 5; j < graph.reference.size(); ++j) start_to_rest.emplace_back(i, j);
+    return bench::relationError(graph.trajectory, graph.reference, start_to_rest);
   };
   const RobotSlamParams defaults_now = defaults();
   const auto wide = run(defaults_now.graph.loop_lone_window_xy, defaults_now.graph.loop_lone_window_yaw);
@@ -322,17 +328,10 @@ TEST(GraphSlam, EveryThirdIntelScanKeepsTrack) {
 // `every`-th scan from `phase` on; counts the scans the correlative search placed alone.
 double decimatedGlobalError(const RobotLog& log, int every, int phase, const RobotSlamParams& params,
                             size_t* seeds_alone = nullptr) {
-  const RobotLog slow = decimate(log, every, phase);
-  GraphSlam slam(params, slow.laser_in_base);
-  std::vector<Pose2D> reference;
-  for (const LogRecord& r : slow.records) {
-    slam.addOdometry(r.odometry);
-    slam.processScan(r.scan);
-    reference.push_back(r.reference);
-  }
-  slam.finish();
-  if (seeds_alone) *seeds_alone += slam.stats().seeds_alone;
-  return bench::relationError(slam.trajectory(), reference, bench::randomPairs(reference.size(), 500, 2009)).trans_mean;
+  const GraphRun graph = runGraph(decimate(log, every, phase), params);
+  if (seeds_alone) *seeds_alone += graph.stats.seeds_alone;
+  return bench::relationError(graph.trajectory, graph.reference, bench::randomPairs(graph.reference.size(), 500, 2009))
+      .trans_mean;
 }
 
 // A slower scanner still: ACES at every 5th scan (88 scans, 1-3 m and up to 90 degrees apart),
