@@ -46,12 +46,10 @@ class LoopCloser {
   // rejections into `stats`.
   std::vector<LoopClosure> search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
                                   const std::vector<Pose2D>& anchor_poses, FrontEndStats& stats);
-  // The node against one submap within `window` (xy m, yaw rad; window(distance) for a node
-  // `distance` m away through the graph), as search() tries each candidate; the reverse search
-  // (older nodes against a newly finished submap) uses it alone.
+  // The node against one submap (`distance` m away through the graph), as search() tries each
+  // candidate; the reverse search (older nodes against a newly finished submap) uses it alone.
   std::optional<LoopClosure> tryClosure(const LoopQuery& query, int index, const Submap& submap,
-                                        const Pose2D& anchor_pose, std::pair<double, double> window,
-                                        FrontEndStats& stats);
+                                        const Pose2D& anchor_pose, double distance, FrontEndStats& stats);
   // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it), and
   // whether that is near enough for the window at `distance` to reach what the node sees.
   double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
