@@ -46,14 +46,13 @@ class LoopCloser {
   // rejections into `stats`.
   std::vector<LoopClosure> search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
                                   const std::vector<Pose2D>& anchor_poses, FrontEndStats& stats);
-  // The node against one submap (`distance` m away through the graph), as search() tries each
-  // candidate; the reverse search (older nodes against a newly finished submap) uses it alone.
-  std::optional<LoopClosure> tryClosure(const LoopQuery& query, int index, const Submap& submap,
+  // A node (its thinned `points` in base_link, predicted at `pose` in the map) against one
+  // submap `distance` m away through the graph, as search() tries each candidate; the reverse
+  // search (older nodes against a newly finished submap) uses it alone.
+  std::optional<LoopClosure> tryClosure(const Points2& points, const Pose2D& pose, int index, const Submap& submap,
                                         const Pose2D& anchor_pose, double distance, FrontEndStats& stats);
-  // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it), and
-  // whether that is near enough for the window at `distance` to reach what the node sees.
+  // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it).
   double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
-  bool inReach(double beyond, double distance) const;
   void clear() { cache_.clear(); }
   // Drops the submap's matchers (built again when next needed).
   void forget(int index) { cache_.erase(index); }

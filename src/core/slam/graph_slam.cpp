@@ -138,8 +138,8 @@ void GraphSlam::closeLoopsOfOlderNodes(int index, ScanStep& step) {
     // node near enough to see part of it would cost as much again as the forward search.
     if (tied[static_cast<size_t>(m)] || closer_.beyond(submap, anchor_pose, poses_[m]) > closer_.window(distance[m]).first)
       continue;
-    const LoopQuery query{nodes_[m].points, poses_[m], nodes_[m].travel, distance};
-    if (auto c = closer_.tryClosure(query, index, submap, anchor_pose, distance[m], stats_)) found.emplace_back(m, *c);
+    if (auto c = closer_.tryClosure(nodes_[m].points, poses_[m], index, submap, anchor_pose, distance[m], stats_))
+      found.emplace_back(m, *c);
   }
   // New nodes reach this submap only loop_min_travel later: its grids need not stay in memory
   // beside the older submaps' until then (ACES peaked 11 MB higher, over 300 MB, with them kept).

@@ -46,13 +46,14 @@ const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& subm
   return it->second;
 }
 
-std::optional<LoopClosure> LoopCloser::tryClosure(const LoopQuery& query, int index, const Submap& submap,
-                                                  const Pose2D& anchor_pose, double distance, FrontEndStats& stats) {
+std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const Pose2D& pose, int index,
+                                                  const Submap& submap, const Pose2D& anchor_pose, double distance,
+                                                  FrontEndStats& stats) {
   ++stats.loop_attempts;
   const auto [xy, yaw] = window(distance);
   const Matchers& m = matchersOf(index, submap);
-  const SearchWindow search{anchor_pose.inverse().compose(query.pose), xy, yaw};
-  const CorrelativeMatch best = m.correlative->match(query.points, search, params_.loop_min_score);
+  const SearchWindow search{anchor_pose.inverse().compose(pose), xy, yaw};
+  const CorrelativeMatch best = m.correlative->match(points, search, params_.loop_min_score);
   if (!best.found) {
     ++stats.loop_rejected_score;
     return std::nullopt;
@@ -68,18 +69,18 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const LoopQuery& query, int in
   }
   const double rival_floor = params_.loop_max_rival * best.score;
   const CorrelativeMatch rival =
-      m.correlative->match(query.points, search, rival_floor, &best.pose, kRivalXy, kRivalYaw);
+      m.correlative->match(points, search, rival_floor, &best.pose, kRivalXy, kRivalYaw);
   if (rival.found) {
     ++stats.loop_rejected_ambiguous;
     return std::nullopt;
   }
-  const ScanMatch refined = m.icp->align(query.points, best.pose);
+  const ScanMatch refined = m.icp->align(points, best.pose);
   const Pose2D moved = best.pose.inverse().compose(refined.pose);
   if (!refined.ok || std::hypot(moved.x, moved.y) > kIcpAgreeXy || std::abs(moved.yaw) > kIcpAgreeYaw) {
     ++stats.loop_rejected_icp;
     return std::nullopt;
   }
-  const double score = m.correlative->grid().score(transformPoints(query.points, refined.pose));
+  const double score = m.correlative->grid().score(transformPoints(points, refined.pose));
   if (score < params_.loop_min_score) {
     ++stats.loop_rejected_icp;
     return std::nullopt;
@@ -93,10 +94,6 @@ double LoopCloser::beyond(const Submap& submap, const Pose2D& anchor_pose, const
   double x, y;
   anchor_pose.apply(cx, cy, x, y);
   return std::hypot(x - pose.x, y - pose.y) - radius;
-}
-
-bool LoopCloser::inReach(double beyond, double distance) const {
-  return beyond <= window(distance).first + params_.loop_view_distance;
 }
 
 std::vector<LoopClosure> LoopCloser::search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
@@ -113,13 +110,14 @@ std::vector<LoopClosure> LoopCloser::search(const LoopQuery& query, const std::v
     double distance = std::numeric_limits<double>::infinity();
     for (const auto& [node, pose] : s.nodeList()) distance = std::min(distance, query.graph_distance[node]);
     const double away = beyond(s, anchor_poses[i], query.pose);
-    if (inReach(away, distance)) near.push_back({away, distance, static_cast<int>(i)});
+    if (away <= window(distance).first + params_.loop_view_distance) near.push_back({away, distance, static_cast<int>(i)});
   }
   std::sort(near.begin(), near.end(), [](const Near& a, const Near& b) { return a.beyond < b.beyond; });
   std::vector<LoopClosure> closures;
   for (size_t k = 0; k < near.size() && static_cast<int>(k) < params_.loop_max_candidates; ++k) {
     const int i = near[k].index;
-    if (auto closure = tryClosure(query, i, *submaps[i], anchor_poses[i], near[k].distance, stats)) closures.push_back(*closure);
+    if (auto closure = tryClosure(query.points, query.pose, i, *submaps[i], anchor_poses[i], near[k].distance, stats))
+      closures.push_back(*closure);
   }
   return closures;
 }
