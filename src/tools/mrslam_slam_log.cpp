@@ -132,7 +132,7 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   out << "; odometry doubted " << s.odometry_doubted << ", jumps " << s.odometry_jumps << ", slips " << s.odometry_slips
       << ", driven backwards " << s.odometry_reversals << "; " << s.seeds_alone << " placed by the correlative search alone";
   if (robot.name() == "graph")
-    out << "\nmrslam_slam_log: graph " << s.nodes << " nodes, " << s.submaps << " submaps; loop closures "
+    out << "\nmrslam_slam_log: graph " << s.nodes << " nodes, " << s.submaps << " submaps (" << s.submaps_redrawn << " redrawn); loop closures "
         << s.loop_accepted << " accepted of " << s.loop_attempts << " tried (rejected: " << s.loop_rejected_score
         << " score, " << s.loop_rejected_ambiguous << " ambiguous, " << s.loop_rejected_icp << " ICP; "
         << s.loop_unconfirmed << " never confirmed; " << s.loop_dropped << " dropped at the optimum); "

@@ -86,6 +86,9 @@ struct GraphParams {
   double node_distance = 0.25;   // m moved before the next scan becomes a graph node...
   double node_angle = 0.17;      // rad: ...or this much turn (10 degrees)
   int submap_nodes = 25;         // nodes per submap (loop closures match against finished submaps)
+  double redraw_xy = 0.05;       // m: a submap whose scans an optimisation moved this far...
+  double redraw_yaw = 0.0087;    // rad: ...or turned this much (0.5 degrees) within it is drawn
+                                 // again (0: never)
   // Noise of the tracker's motion between consecutive nodes (standard deviations).
   double odometry_sigma_xy = 0.02;       // m, plus...
   double odometry_sigma_xy_per_m = 0.02; // ...m per m travelled
@@ -188,7 +191,7 @@ struct FrontEndStats {
   size_t scans = 0, used = 0, rejected = 0, matched = 0, gated = 0, seeded = 0;
   size_t odometry_doubted = 0, odometry_jumps = 0, odometry_slips = 0, odometry_reversals = 0;
   size_t seeds_alone = 0;  // matched by the correlative seed alone (ICP could not confirm it)
-  size_t nodes = 0, submaps = 0;
+  size_t nodes = 0, submaps = 0, submaps_redrawn = 0;
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
   size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed
   size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;

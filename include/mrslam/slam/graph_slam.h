@@ -17,7 +17,10 @@
 //
 // The map: scans go into submaps (submap.h) in their anchor node's frame; the map is the
 // submaps composed at their anchors' optimised poses, so a correction moves submaps rather than
-// re-casting every ray. The pose of the robot and of every scan follow the optimised nodes.
+// re-casting every ray. A submap whose own nodes an optimisation moved apart by more than
+// graph_redraw_xy / _yaw is drawn again from its scans, so a stretch a closure straightened is
+// straight in the map too (loop closures still search the points where the tracker put them,
+// submap.h). The pose of the robot and of every scan follow the optimised nodes.
 #pragma once
 
 #include <memory>
@@ -77,6 +80,12 @@ class GraphSlam : public FrontEnd {
   bool isNewNode(const Pose2D& tracker_pose) const;
   void addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step);
   Submap& activeSubmap();
+  // Where node `node` lies in the frame of the submap's anchor, by the tracker and by the
+  // optimised graph.
+  Pose2D trackedInAnchor(const Submap& submap, int node) const;
+  Pose2D optimizedInAnchor(const Submap& submap, int node) const;
+  // Draws the grid of every submap whose nodes the last optimisation moved apart again (submap.h).
+  void followOptimizedPoses();
   void closeLoops(int node, ScanStep& step);
   // Older nodes against the submap just finished: a node the tracker placed badly before the
   // robot came back (the start of a run, a lost stretch) is tied to what the return drew.

@@ -56,12 +56,11 @@ ScanStep GraphSlam::processScan(const LaserScan& scan) {
     travel_ += std::hypot(tracker_pose.x - last_tracker_pose_.x, tracker_pose.y - last_tracker_pose_.y);
   last_tracker_pose_ = tracker_pose;
   if (isNewNode(tracker_pose)) addNode(scan, tracker_pose, step);
-  const Node& node = nodes_.back();
-  const Pose2D offset = node.tracker_pose.inverse().compose(tracker_pose);
+  const int node = static_cast<int>(nodes_.size()) - 1;
+  const Pose2D offset = nodes_.back().tracker_pose.inverse().compose(tracker_pose);
   Submap& submap = activeSubmap();
-  const Pose2D in_anchor = nodes_[submap.anchor()].tracker_pose.inverse().compose(tracker_pose);
-  submap.insert(scan, thinPoints(scanPoints(scan, tracker_.laserInBase()), params_.graph.loop_resolution), in_anchor);
-  scans_.push_back({static_cast<int>(nodes_.size()) - 1, offset});
+  submap.insert(scan, node, offset, trackedInAnchor(submap, node), optimizedInAnchor(submap, node));
+  scans_.push_back({node, offset});
   ++map_version_;
   return step;
 }
@@ -74,6 +73,26 @@ bool GraphSlam::isNewNode(const Pose2D& tracker_pose) const {
 }
 
 Submap& GraphSlam::activeSubmap() { return *submaps_.back(); }
+
+Pose2D GraphSlam::trackedInAnchor(const Submap& submap, int node) const {
+  return nodes_[submap.anchor()].tracker_pose.inverse().compose(nodes_[node].tracker_pose);
+}
+
+Pose2D GraphSlam::optimizedInAnchor(const Submap& submap, int node) const {
+  return poses_[submap.anchor()].inverse().compose(poses_[node]);
+}
+
+void GraphSlam::followOptimizedPoses() {
+  const double xy = params_.graph.redraw_xy, yaw = params_.graph.redraw_yaw;
+  if (!(xy > 0) || !(yaw > 0)) return;
+  for (auto& submap_ptr : submaps_) {
+    Submap& submap = *submap_ptr;
+    std::vector<Pose2D> node_poses;
+    node_poses.reserve(submap.nodeList().size());
+    for (const auto& entry : submap.nodeList()) node_poses.push_back(optimizedInAnchor(submap, entry.first));
+    if (submap.follow(node_poses, xy, yaw)) ++stats_.submaps_redrawn;
+  }
+}
 
 void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step) {
   const int n = static_cast<int>(nodes_.size());
@@ -90,10 +109,10 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanS
   int finished = -1;
   if (submaps_.empty() || activeSubmap().nodes() >= params_.graph.submap_nodes) {
     if (!submaps_.empty()) activeSubmap().finish(travel_), finished = static_cast<int>(submaps_.size()) - 1;
-    submaps_.push_back(std::make_unique<Submap>(n, params_.grid, tracker_.laserInBase()));
+    submaps_.push_back(std::make_unique<Submap>(n, params_.grid, tracker_.laserInBase(), params_.graph.loop_resolution));
     ++stats_.submaps;
   }
-  activeSubmap().addNode(n, nodes_[activeSubmap().anchor()].tracker_pose.inverse().compose(tracker_pose));
+  activeSubmap().addNode(n, trackedInAnchor(activeSubmap(), n));
   ++stats_.nodes;
   step.new_node = true;
   if (params_.loop_closure) closeLoops(n, step);
@@ -282,6 +301,7 @@ bool GraphSlam::optimize() {
     stats_.loop_dropped += before - edges_.size();
     if (edges_.size() == before) break;
   }
+  followOptimizedPoses();
   ++map_version_;
   return moved;
 }

@@ -86,6 +86,8 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"graph_node_distance", &graph.node_distance},
       {"graph_node_angle", &graph.node_angle},
       {"graph_submap_nodes", &graph.submap_nodes},
+      {"graph_redraw_xy", &graph.redraw_xy},
+      {"graph_redraw_yaw", &graph.redraw_yaw},
       {"graph_odometry_sigma_xy", &graph.odometry_sigma_xy},
       {"graph_odometry_sigma_xy_per_m", &graph.odometry_sigma_xy_per_m},
       {"graph_odometry_sigma_yaw", &graph.odometry_sigma_yaw},

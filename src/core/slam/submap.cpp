@@ -1,18 +1,39 @@
 #include "mrslam/slam/submap.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace mrslam::slam {
 
-Submap::Submap(int anchor_node, const GridMapperParams& grid, const Pose2D& laser_in_base)
-    : anchor_(anchor_node), mapper_(grid, laser_in_base) {}
+Submap::Submap(int anchor_node, const GridMapperParams& grid, const Pose2D& laser_in_base, double points_resolution)
+    : anchor_(anchor_node), mapper_(grid, laser_in_base), laser_in_base_(laser_in_base),
+      points_resolution_(points_resolution) {}
 
-void Submap::insert(const LaserScan& scan, const Points2& points, const Pose2D& pose) {
-  mapper_.insert(scan, pose);
-  const Points2 moved = transformPoints(points, pose);
+void Submap::insert(const LaserScan& scan, int node, const Pose2D& offset, const Pose2D& tracked, const Pose2D& drawn) {
+  scans_.push_back({scan, node, offset, drawn.compose(offset)});
+  mapper_.insert(scan, scans_.back().pose);
+  const Pose2D pose = tracked.compose(offset);
+  const Points2 moved = transformPoints(thinPoints(scanPoints(scan, laser_in_base_), points_resolution_), pose);
   points_.insert(points_.end(), moved.begin(), moved.end());
   min_x_ = std::min(min_x_, pose.x), max_x_ = std::max(max_x_, pose.x);
   min_y_ = std::min(min_y_, pose.y), max_y_ = std::max(max_y_, pose.y);
+}
+
+bool Submap::follow(const std::vector<Pose2D>& node_poses, double xy, double yaw) {
+  if (node_poses.size() != nodes_.size() || scans_.empty()) return false;
+  const int first = nodes_.front().first;
+  const auto now = [&](const Drawn& d) { return node_poses[static_cast<size_t>(d.node - first)].compose(d.offset); };
+  const bool moved = std::any_of(scans_.begin(), scans_.end(), [&](const Drawn& d) {
+    const Pose2D shift = d.pose.inverse().compose(now(d));
+    return std::hypot(shift.x, shift.y) > xy || std::abs(shift.yaw) > yaw;
+  });
+  if (!moved) return false;
+  mapper_.clear();
+  for (Drawn& d : scans_) {
+    d.pose = now(d);
+    mapper_.insert(d.scan, d.pose);
+  }
+  return true;
 }
 
 void Submap::finish(double travel) {
