@@ -111,6 +111,8 @@ struct GraphParams {
                                          // still share what the node sees
   bool loop_older_nodes = true;          // a finished submap is also searched for the older nodes
                                          // among its poses (graph_slam.h)
+  double loop_lone_window_xy = 8.0;      // m: ...in this window for an older node next to a weak
+  double loop_lone_window_yaw = 0.8;     // rad: tracker edge and without a closure (46 degrees)
   double loop_resolution = 0.05;         // m, of the submaps' likelihood grids
   double loop_sigma = 0.05;              // m, likelihood kernel
   double loop_min_score = 0.55;          // mean likelihood of the node's points at the match

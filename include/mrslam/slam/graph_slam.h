@@ -100,6 +100,11 @@ class GraphSlam : public FrontEnd {
   bool consistent(const Closure& a, const Closure& b) const;
   void expirePending();
   double loopLength() const;  // a closure's length in graphDistances
+  // Per node: next to a weak tracker edge and tied to the map by no closure yet. Such a node may
+  // lie further off than any window grown with the graph distance (the start of a run before
+  // the tracker matched anything: Intel every 5th, 44 degrees), so the reverse search looks for
+  // it in the loop_lone_window.
+  std::vector<char> loneNodes() const;
   PoseGraphEdge odometryEdge(int from, int to, bool weak) const;
   PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
   // Optimises; drops closures the optimum disagrees with. True when the poses moved.

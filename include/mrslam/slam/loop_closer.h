@@ -47,10 +47,12 @@ class LoopCloser {
   std::vector<LoopClosure> search(const LoopQuery& query, const std::vector<std::unique_ptr<Submap>>& submaps,
                                   const std::vector<Pose2D>& anchor_poses, FrontEndStats& stats);
   // A node (its thinned `points` in base_link, predicted at `pose` in the map) against one
-  // submap `distance` m away through the graph, as search() tries each candidate; the reverse
-  // search (older nodes against a newly finished submap) uses it alone.
+  // submap within `window` (xy m, yaw rad; window(distance) for a node `distance` m away
+  // through the graph), as search() tries each candidate; the reverse search (older nodes
+  // against a newly finished submap) uses it alone.
   std::optional<LoopClosure> tryClosure(const Points2& points, const Pose2D& pose, int index, const Submap& submap,
-                                        const Pose2D& anchor_pose, double distance, FrontEndStats& stats);
+                                        const Pose2D& anchor_pose, std::pair<double, double> window,
+                                        FrontEndStats& stats);
   // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it).
   double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
   void clear() { cache_.clear(); }

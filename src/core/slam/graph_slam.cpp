@@ -149,15 +149,18 @@ void GraphSlam::closeLoopsOfOlderNodes(int index, ScanStep& step) {
     if (e.loop_closure && e.to >= members.front() && e.to <= members.back())
       for (int k = std::max(0, e.from - kTiedNeighbours); k <= std::min(e.from + kTiedNeighbours, members.front() - 1); ++k)
         tied[static_cast<size_t>(k)] = 1;
+  const std::vector<char> lone = loneNodes();
+  const std::pair<double, double> lone_window{params_.graph.loop_lone_window_xy, params_.graph.loop_lone_window_yaw};
   const Pose2D& anchor_pose = poses_[submap.anchor()];
   const double newest_travel = nodes_[submap.anchor()].travel - params_.graph.loop_min_travel;
   std::vector<std::pair<int, LoopClosure>> found;
   for (int m = 0; m < submap.anchor() && nodes_[m].travel <= newest_travel; ++m) {
     // Only nodes among the submap's own poses (within the window, no view distance): every old
     // node near enough to see part of it would cost as much again as the forward search.
-    if (tied[static_cast<size_t>(m)] || closer_.beyond(submap, anchor_pose, poses_[m]) > closer_.window(distance[m]).first)
-      continue;
-    if (auto c = closer_.tryClosure(nodes_[m].points, poses_[m], index, submap, anchor_pose, distance[m], stats_))
+    const auto window = closer_.window(distance[m]);
+    if (tied[static_cast<size_t>(m)] || closer_.beyond(submap, anchor_pose, poses_[m]) > window.first) continue;
+    if (auto c = closer_.tryClosure(nodes_[m].points, poses_[m], index, submap, anchor_pose,
+                                    lone[static_cast<size_t>(m)] ? lone_window : window, stats_))
       found.emplace_back(m, *c);
   }
   // New nodes reach this submap only loop_min_travel later: its grids need not stay in memory
@@ -189,6 +192,15 @@ void GraphSlam::addClosures(const std::vector<std::pair<int, LoopClosure>>& foun
     unoptimized_closures_ += accepted;
     if (worst > params_.graph.optimize_chi2) step.map_moved = optimize() || step.map_moved;
   }
+}
+
+std::vector<char> GraphSlam::loneNodes() const {
+  std::vector<char> lone(nodes_.size(), 0);
+  for (const PoseGraphEdge& e : edges_)
+    if (!e.loop_closure && e.drift_factor > 1) lone[static_cast<size_t>(e.from)] = lone[static_cast<size_t>(e.to)] = 1;
+  for (const PoseGraphEdge& e : edges_)
+    if (e.loop_closure) lone[static_cast<size_t>(e.from)] = lone[static_cast<size_t>(e.to)] = 0;
+  return lone;
 }
 
 double GraphSlam::loopLength() const {

@@ -47,10 +47,11 @@ const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& subm
 }
 
 std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const Pose2D& pose, int index,
-                                                  const Submap& submap, const Pose2D& anchor_pose, double distance,
+                                                  const Submap& submap, const Pose2D& anchor_pose,
+                                                  std::pair<double, double> window,
                                                   FrontEndStats& stats) {
   ++stats.loop_attempts;
-  const auto [xy, yaw] = window(distance);
+  const auto [xy, yaw] = window;
   const Matchers& m = matchersOf(index, submap);
   const SearchWindow search{anchor_pose.inverse().compose(pose), xy, yaw};
   const CorrelativeMatch best = m.correlative->match(points, search, params_.loop_min_score);
@@ -116,7 +117,7 @@ std::vector<LoopClosure> LoopCloser::search(const LoopQuery& query, const std::v
   std::vector<LoopClosure> closures;
   for (size_t k = 0; k < near.size() && static_cast<int>(k) < params_.loop_max_candidates; ++k) {
     const int i = near[k].index;
-    if (auto closure = tryClosure(query.points, query.pose, i, *submaps[i], anchor_poses[i], near[k].distance, stats))
+    if (auto closure = tryClosure(query.points, query.pose, i, *submaps[i], anchor_poses[i], window(near[k].distance), stats))
       closures.push_back(*closure);
   }
   return closures;

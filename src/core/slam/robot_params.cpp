@@ -105,6 +105,8 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"loop_max_candidates", &graph.loop_max_candidates},
       {"loop_view_distance", &graph.loop_view_distance},
       {"loop_older_nodes", &graph.loop_older_nodes},
+      {"loop_lone_window_xy", &graph.loop_lone_window_xy},
+      {"loop_lone_window_yaw", &graph.loop_lone_window_yaw},
       {"loop_resolution", &graph.loop_resolution},
       {"loop_sigma", &graph.loop_sigma},
       {"loop_min_score", &graph.loop_min_score},
