@@ -127,6 +127,9 @@ struct GraphParams {
   double loop_consistency_yaw = 0.035;   // rad: ...and this (2 degrees)...
   double loop_consistency_min_travel = 1.5;  // m: ...from a node at least this far along the
                                          // path (nodes a step apart see the same walls)...
+  double loop_consistency_weak_sigmas = 3.0;  // ...plus, when either closure is of a lone node
+                                         // (loop_lone_window), this many sigmas of the weak
+                                         // edges between the two nodes (at most the lone window)...
   double loop_confirm_travel = 10.0;     // m: ...found within this much further travel
   double loop_outlier_chi2 = 25.0;       // a closure whose error at the optimum exceeds this
                                          // (squared sigmas) is dropped as wrong

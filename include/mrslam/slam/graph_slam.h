@@ -65,12 +65,14 @@ class GraphSlam : public FrontEnd {
     Pose2D tracker_pose;  // in the tracker's frame
     double travel = 0;    // m along the trajectory
     Points2 points;       // returns in base_link, thinned
+    bool weak = false;    // the tracker's motion from the previous node is weak (odometryEdge)
   };
   struct Closure {         // a loop closure: node `to` at `measurement` in the frame of `from`
     int from = 0, to = 0;
     Pose2D measurement;
     double travel = 0;       // of node `to`: closures from nodes this far apart are independent views
     double found_at = 0;     // travel when it was found (a pending closure expires after loop_confirm_travel)
+    bool lone = false;       // node `to` was lone (loneNodes) when it was found
   };
   struct ScanRef {        // a scan's pose is poses_[node] o offset
     int node = 0;
@@ -98,6 +100,10 @@ class GraphSlam : public FrontEnd {
   std::vector<Closure> admit(const Closure& c);
   bool agreesWithGraph(const Closure& c) const;
   bool consistent(const Closure& a, const Closure& b) const;
+  // How much further than loop_consistency_xy / _yaw the tracker's motion between nodes a and
+  // b may be off (m, rad): loop_consistency_weak_sigmas of the weak edges on that stretch, at
+  // most the lone window.
+  std::pair<double, double> weakMotionSlack(int a, int b) const;
   void expirePending();
   double loopLength() const;  // a closure's length in graphDistances
   // Per node: next to a weak tracker edge and tied to the map by no closure yet. Such a node may

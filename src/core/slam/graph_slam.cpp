@@ -103,8 +103,9 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanS
     const Pose2D motion = nodes_.back().tracker_pose.inverse().compose(tracker_pose);
     poses_.push_back(poses_.back().compose(motion));
   }
+  node.weak = n > 0 && weak_since_node_;
   nodes_.push_back(std::move(node));
-  if (n > 0) edges_.push_back(odometryEdge(n - 1, n, weak_since_node_));
+  if (n > 0) edges_.push_back(odometryEdge(n - 1, n, nodes_.back().weak));
   weak_since_node_ = false;
   int finished = -1;
   if (submaps_.empty() || activeSubmap().nodes() >= params_.graph.submap_nodes) {
@@ -172,11 +173,13 @@ void GraphSlam::closeLoopsOfOlderNodes(int index, ScanStep& step) {
 
 void GraphSlam::addClosures(const std::vector<std::pair<int, LoopClosure>>& found, ScanStep& step) {
   int accepted = 0;
+  const std::vector<char> lone = found.empty() ? std::vector<char>{} : loneNodes();
   for (const auto& [node, c] : found) {
     // Relative to the submap's node nearest to the match: the submap holds the tracker's drift
     // since its anchor, the nearest node only what drifted between it and the match.
     const auto& [near, near_in_anchor] = submaps_[c.submap]->nearestNode(c.pose.x, c.pose.y);
-    const Closure closure{near, node, near_in_anchor.inverse().compose(c.pose), nodes_[node].travel, travel_};
+    const Closure closure{near, node, near_in_anchor.inverse().compose(c.pose), nodes_[node].travel, travel_,
+                          lone[static_cast<size_t>(node)] != 0};
     for (const Closure& confirmed : admit(closure)) {
       edges_.push_back(loopEdge(confirmed.from, confirmed.to, confirmed.measurement));
       ++accepted;
@@ -229,8 +232,29 @@ bool GraphSlam::consistent(const Closure& a, const Closure& b) const {
   const Pose2D b_to = poses_[b.from].compose(b.measurement);
   const Pose2D motion = nodes_[a.to].tracker_pose.inverse().compose(nodes_[b.to].tracker_pose);
   const Pose2D gap = a_to.compose(motion).inverse().compose(b_to);
-  return std::hypot(gap.x, gap.y) <= params_.graph.loop_consistency_xy &&
-         std::abs(gap.yaw) <= params_.graph.loop_consistency_yaw;
+  // A lone node's closure may be the first to say where a stretch the tracker lost really lies:
+  // its partner, across that stretch, is held only to what the weak edges between them allow.
+  const bool across_lost = (a.lone || b.lone) && params_.graph.loop_consistency_weak_sigmas > 0;
+  const auto [extra_xy, extra_yaw] = across_lost ? weakMotionSlack(a.to, b.to) : std::pair<double, double>{0, 0};
+  return std::hypot(gap.x, gap.y) <= params_.graph.loop_consistency_xy + extra_xy &&
+         std::abs(gap.yaw) <= params_.graph.loop_consistency_yaw + extra_yaw;
+}
+
+std::pair<double, double> GraphSlam::weakMotionSlack(int a, int b) const {
+  double var_xy = 0, var_yaw = 0, length = 0;
+  for (int k = std::min(a, b) + 1; k <= std::max(a, b); ++k) {
+    const PoseGraphEdge e = odometryEdge(k - 1, k, true);
+    length += std::hypot(e.measurement.x, e.measurement.y);
+    if (!nodes_[k].weak) continue;
+    var_xy += 1 / e.information(0, 0);
+    var_yaw += 1 / e.information(2, 2);
+  }
+  const double sd_yaw = std::sqrt(var_yaw);
+  // Never more than the lone window: the weak edges' sigmas (weak_edge_factor times the usual)
+  // grow past any error a search could have found.
+  const double sigmas = params_.graph.loop_consistency_weak_sigmas;
+  return {std::min(params_.graph.loop_lone_window_xy, sigmas * (std::sqrt(var_xy) + sd_yaw * length)),
+          std::min(params_.graph.loop_lone_window_yaw, sigmas * sd_yaw)};
 }
 
 std::vector<GraphSlam::Closure> GraphSlam::admit(const Closure& c) {

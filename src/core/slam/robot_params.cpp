@@ -118,6 +118,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"loop_consistency_xy", &graph.loop_consistency_xy},
       {"loop_consistency_yaw", &graph.loop_consistency_yaw},
       {"loop_consistency_min_travel", &graph.loop_consistency_min_travel},
+      {"loop_consistency_weak_sigmas", &graph.loop_consistency_weak_sigmas},
       {"loop_confirm_travel", &graph.loop_confirm_travel},
       {"loop_outlier_chi2", &graph.loop_outlier_chi2},
       {"graph_optimize_chi2", &graph.optimize_chi2},
