@@ -199,8 +199,8 @@ void GraphSlam::addClosures(const std::vector<std::pair<int, LoopClosure>>& foun
 
 std::vector<char> GraphSlam::loneNodes() const {
   std::vector<char> lone(nodes_.size(), 0);
-  for (const PoseGraphEdge& e : edges_)
-    if (!e.loop_closure && e.drift_factor > 1) lone[static_cast<size_t>(e.from)] = lone[static_cast<size_t>(e.to)] = 1;
+  for (size_t k = 1; k < nodes_.size(); ++k)
+    if (nodes_[k].weak) lone[k - 1] = lone[k] = 1;
   for (const PoseGraphEdge& e : edges_)
     if (e.loop_closure) lone[static_cast<size_t>(e.from)] = lone[static_cast<size_t>(e.to)] = 0;
   return lone;
