@@ -316,18 +316,11 @@ TEST(GraphSlam, AStartTheTrackerCouldNotMatchIsFoundWhenTheRobotReturns) {
     RobotSlamParams params = defaults();
     params.use_imu = false;
     params.graph.loop_lone_window_xy = lone_xy, params.graph.loop_lone_window_yaw = lone_yaw;
-    GraphSlam slam(params, every5.laser_in_base);
-    std::vector<Pose2D> reference;
-    for (const LogRecord& r : every5.records) {
-      slam.addOdometry(r.odometry);
-      slam.processScan(r.scan);
-      reference.push_back(r.reference);
-    }
-    slam.finish();
+    const GraphRun graph = runGraph(every5, params);
     std::vector<std::pair<size_t, size_t>> start_to_rest;  // the first five scans against every later one
     for (size_t i = 0; i < 5; ++i)
-      for (size_t j = 5; j < reference.size(); ++j) start_to_rest.emplace_back(i, j);
-    return bench::relationError(slam.trajectory(), reference, start_to_rest);
+      for (size_t j = 5; j < graph.reference.size(); ++j) start_to_rest.emplace_back(i, j);
+    return bench::relationError(graph.trajectory, graph.reference, start_to_rest);
   };
   const RobotSlamParams defaults_now = defaults();
   const auto wide = run(defaults_now.graph.loop_lone_window_xy, defaults_now.graph.loop_lone_window_yaw);
