@@ -51,6 +51,8 @@ class CorrelativeMatcher {
                          const Pose2D* excluded = nullptr, double exclude_xy = 0, double exclude_yaw = 0) const;
 
   const LikelihoodGrid& grid() const { return *grid_; }
+  // Bytes held by the grid and its max-pooled copies (what a cache of matchers must budget).
+  size_t bytes() const;
 
  private:
   struct Level {

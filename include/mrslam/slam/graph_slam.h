@@ -56,6 +56,8 @@ class GraphSlam : public FrontEnd {
   // For tests and tools: the graph as it stands.
   const std::vector<Pose2D>& nodePoses() const { return poses_; }
   const std::vector<PoseGraphEdge>& edges() const { return edges_; }
+  // Bytes of loop-closure search grids held now (loop_matcher_cache_mb bounds them).
+  size_t loopSearchBytes() const { return closer_.cachedBytes(); }
   // Adds a loop-closure edge as if the search had found it, and optimises (tests inject
   // false closures this way).
   void addLoopClosure(int from_node, int to_node, const Pose2D& measurement);

@@ -46,6 +46,12 @@ void pairMax(const uint8_t* in, int n, int step, uint8_t* out) {
 
 }  // namespace
 
+size_t CorrelativeMatcher::bytes() const {
+  size_t total = grid_->values().size();
+  for (const Level& level : levels_) total += level.values.size();
+  return total;
+}
+
 CorrelativeMatcher::CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> grid, int levels) : grid_(std::move(grid)) {
   Level base;
   base.width = grid_->width();

@@ -8,7 +8,6 @@
 namespace mrslam::slam {
 
 namespace {
-constexpr size_t kCachedSubmaps = 16;  // matchers kept (the search is local: few submaps at a time)
 constexpr double kRivalXy = 1.0;       // m: a rival must be at least this far...
 constexpr double kRivalYaw = 0.087;    // rad: ...or turned this much (5 degrees) from the match
 constexpr double kIcpAgreeXy = 0.3;    // m: ICP may move the correlative match this far...
@@ -30,20 +29,35 @@ double LoopCloser::saturationDistance() const {
 const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& submap) {
   auto it = cache_.find(index);
   if (it == cache_.end()) {
-    if (cache_.size() >= kCachedSubmaps) {
-      auto oldest = std::min_element(cache_.begin(), cache_.end(),
-                                     [](const auto& a, const auto& b) { return a.second.used < b.second.used; });
-      cache_.erase(oldest);
-    }
     Matchers m;
     auto grid = std::make_shared<const LikelihoodGrid>(submap.points(), params_.loop_resolution, params_.loop_sigma, 1.0);
     m.correlative = std::make_unique<CorrelativeMatcher>(grid, 7);
     m.icp = std::make_unique<PointCloudAligner>(icp_params_);
     m.icp->setReference(submap.points());
+    m.bytes = m.correlative->bytes();
+    makeRoomFor(m.bytes);
+    cached_bytes_ += m.bytes;
     it = cache_.emplace(index, std::move(m)).first;
   }
   it->second.used = ++clock_;
   return it->second;
+}
+
+void LoopCloser::makeRoomFor(size_t bytes) {
+  // Least recently used first; one matcher larger than the budget is still built (alone).
+  const double budget = params_.loop_matcher_cache_mb * 1024.0 * 1024.0;
+  while (!cache_.empty() && static_cast<double>(cached_bytes_ + bytes) > budget) {
+    auto oldest = std::min_element(cache_.begin(), cache_.end(),
+                                   [](const auto& a, const auto& b) { return a.second.used < b.second.used; });
+    forget(oldest->first);
+  }
+}
+
+void LoopCloser::forget(int index) {
+  auto it = cache_.find(index);
+  if (it == cache_.end()) return;
+  cached_bytes_ -= it->second.bytes;
+  cache_.erase(it);
 }
 
 std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const Pose2D& pose, int index,

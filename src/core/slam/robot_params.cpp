@@ -103,6 +103,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"loop_window_yaw_per_m", &graph.loop_window_yaw_per_m},
       {"loop_window_yaw_max", &graph.loop_window_yaw_max},
       {"loop_max_candidates", &graph.loop_max_candidates},
+      {"loop_matcher_cache_mb", &graph.loop_matcher_cache_mb},
       {"loop_view_distance", &graph.loop_view_distance},
       {"loop_older_nodes", &graph.loop_older_nodes},
       {"loop_lone_window_xy", &graph.loop_lone_window_xy},
