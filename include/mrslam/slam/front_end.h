@@ -107,7 +107,7 @@ struct GraphParams {
   double loop_window_yaw_per_m = 0.005;  // ...rad per m travelled...
   double loop_window_yaw_max = 0.52;     // ...at most (30 degrees)
   int loop_max_candidates = 3;           // nearest submaps tried per node
-  double loop_matcher_cache_mb = 48.0;   // MB: the submaps' search grids kept for the next nodes
+  double loop_matcher_cache_mb = 32.0;   // MB: the submaps' search grids kept for the next nodes
                                          // (least recently used dropped, built again when needed)
   double loop_view_distance = 4.0;       // m: submaps whose poses are this far beyond the window
                                          // still share what the node sees

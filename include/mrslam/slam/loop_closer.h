@@ -55,7 +55,10 @@ class LoopCloser {
                                         FrontEndStats& stats);
   // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it).
   double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
-  void clear() { cache_.clear(), cached_bytes_ = 0; }
+  void clear() {
+    cache_.clear();
+    cached_bytes_ = 0;
+  }
   // Drops the submap's matchers (built again when next needed).
   void forget(int index);
   // Bytes the cached matchers' grids hold now (at most loop_matcher_cache_mb, unless one
