@@ -44,9 +44,10 @@ const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& subm
 }
 
 void LoopCloser::makeRoomFor(size_t bytes) {
-  // Least recently used first; one matcher larger than the budget is still built (alone).
+  // Least recently used first; one matcher larger than the budget is still built (alone). Written
+  // as "not within" so that a NaN budget holds one matcher rather than all of them.
   const double budget = params_.loop_matcher_cache_mb * 1024.0 * 1024.0;
-  while (!cache_.empty() && static_cast<double>(cached_bytes_ + bytes) > budget) {
+  while (!cache_.empty() && !(static_cast<double>(cached_bytes_ + bytes) <= budget)) {
     auto oldest = std::min_element(cache_.begin(), cache_.end(),
                                    [](const auto& a, const auto& b) { return a.second.used < b.second.used; });
     forget(oldest->first);
