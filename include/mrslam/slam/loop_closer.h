@@ -55,15 +55,12 @@ class LoopCloser {
                                         FrontEndStats& stats);
   // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it).
   double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
-  void clear() {
-    cache_.clear();
-    cached_bytes_ = 0;
-  }
+  void clear() { cache_.clear(); }
   // Drops the submap's matchers (built again when next needed).
-  void forget(int index);
+  void forget(int index) { cache_.erase(index); }
   // Bytes the cached matchers' grids hold now (at most loop_matcher_cache_mb, unless one
   // submap's alone is larger).
-  size_t cachedBytes() const { return cached_bytes_; }
+  size_t cachedBytes() const;
   // The search window for poses `distance` m apart through the graph: (xy m, yaw rad).
   std::pair<double, double> window(double distance) const;
   // The graph distance beyond which the window no longer grows.
@@ -74,7 +71,6 @@ class LoopCloser {
     std::unique_ptr<CorrelativeMatcher> correlative;
     std::unique_ptr<PointCloudAligner> icp;
     uint64_t used = 0;
-    size_t bytes = 0;  // the correlative grids' (the aligner's k-d tree is small beside them)
   };
   const Matchers& matchersOf(int index, const Submap& submap);
   // Drops the least recently used matchers until `bytes` more fit loop_matcher_cache_mb.
@@ -83,7 +79,6 @@ class LoopCloser {
   GraphParams params_;
   ScanMatcherParams icp_params_;
   std::map<int, Matchers> cache_;
-  size_t cached_bytes_ = 0;
   uint64_t clock_ = 0;
 };
 

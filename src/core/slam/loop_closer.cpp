@@ -34,9 +34,7 @@ const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& subm
     m.correlative = std::make_unique<CorrelativeMatcher>(grid, 7);
     m.icp = std::make_unique<PointCloudAligner>(icp_params_);
     m.icp->setReference(submap.points());
-    m.bytes = m.correlative->bytes();
-    makeRoomFor(m.bytes);
-    cached_bytes_ += m.bytes;
+    makeRoomFor(m.correlative->bytes());
     it = cache_.emplace(index, std::move(m)).first;
   }
   it->second.used = ++clock_;
@@ -47,18 +45,18 @@ void LoopCloser::makeRoomFor(size_t bytes) {
   // Least recently used first; one matcher larger than the budget is still built (alone). Written
   // as "not within" so that a NaN budget holds one matcher rather than all of them.
   const double budget = params_.loop_matcher_cache_mb * 1024.0 * 1024.0;
-  while (!cache_.empty() && !(static_cast<double>(cached_bytes_ + bytes) <= budget)) {
+  while (!cache_.empty() && !(static_cast<double>(cachedBytes() + bytes) <= budget)) {
     auto oldest = std::min_element(cache_.begin(), cache_.end(),
                                    [](const auto& a, const auto& b) { return a.second.used < b.second.used; });
-    forget(oldest->first);
+    cache_.erase(oldest);
   }
 }
 
-void LoopCloser::forget(int index) {
-  auto it = cache_.find(index);
-  if (it == cache_.end()) return;
-  cached_bytes_ -= it->second.bytes;
-  cache_.erase(it);
+size_t LoopCloser::cachedBytes() const {
+  // The correlative grids' (the aligner's k-d tree is small beside them).
+  size_t total = 0;
+  for (const auto& [index, m] : cache_) total += m.correlative->bytes();
+  return total;
 }
 
 std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const Pose2D& pose, int index,
