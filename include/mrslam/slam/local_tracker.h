@@ -9,6 +9,7 @@
 // (odometry that reports no sign).
 #pragma once
 
+#include <deque>
 #include <memory>
 #include <optional>
 
@@ -55,6 +56,9 @@ class LocalTracker {
   bool seedConfirms(const ScanStep& step) const;
   // Whether a seed ICP did not confirm still scored clearly above the prediction.
   bool seedStandsAlone(const ScanStep& step) const;
+  // The run's typical increment: a high quantile of the last moving strides' lengths (0 before any).
+  double typicalStride() const;
+  void rememberStride(const Pose2D& u);
   // Whether the scan's (thinned) points fit the local map clearly better at `match` than at
   // `prediction`.
   bool scanPrefers(const Points2& points, const Pose2D& match, const Pose2D& prediction);
@@ -73,6 +77,7 @@ class LocalTracker {
   double gyro_yaw_ = 0, gyro_var_ = 0;
   bool have_gyro_ = false;
   bool time_usable_ = true;
+  std::deque<double> strides_;  // lengths of the last moving increments, for doubted() without time
   size_t scans_ = 0;
   double last_stamp_ = 0;
 };

@@ -1,6 +1,8 @@
 #include "mrslam/slam/local_tracker.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <vector>
 
 namespace mrslam::slam {
 
@@ -22,6 +24,7 @@ void LocalTracker::reset() {
   odometry_ = Pose2D{};
   gyro_yaw_ = gyro_var_ = 0;
   have_gyro_ = false;
+  strides_.clear();
   scans_ = 0;
 }
 
@@ -37,9 +40,44 @@ void LocalTracker::addGyro(double yaw_increment, double variance) {
   have_gyro_ = true;
 }
 
+// The increments a run has shown tell how far it moves between scans when time cannot: a slow
+// scanner (a scan every 3-5 m) moves far further than max_odometry_jump every time, and judging
+// each such increment against the previous pose drops real motion (the scan fits the part of
+// the map it has already seen better at rest than where it drove into new ground). A jump of
+// odometry (a reset, a glitch) is an outlier against the run's own strides; the high quantile
+// of the last ones is not moved by one of them.
+//
+// Only strides of a moving robot count: standing or turning on the spot says nothing about how
+// far it goes between scans when it drives (ACES stands for dozens of scans at a time, and the
+// first metre after that was doubted). Until a few are known there is nothing to judge by
+// (Intel every 5th scan starts 0.06, 0.04, then 4.15 m): odometry is taken as data.
+constexpr size_t kStrideHistory = 50;
+constexpr size_t kStrideWarmUp = 5;
+constexpr double kStrideQuantile = 0.75;
+constexpr double kMovingStride = 0.05;  // m
+
+double LocalTracker::typicalStride() const {
+  if (strides_.empty()) return 0.0;
+  std::vector<double> sorted(strides_.begin(), strides_.end());
+  const size_t k = static_cast<size_t>(kStrideQuantile * (sorted.size() - 1));
+  std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
+  return sorted[k];
+}
+
+void LocalTracker::rememberStride(const Pose2D& u) {
+  const double length = std::hypot(u.x, u.y);
+  if (length < kMovingStride) return;
+  strides_.push_back(length);
+  if (strides_.size() > kStrideHistory) strides_.pop_front();
+}
+
 bool LocalTracker::doubted(const Pose2D& u, double stamp) const {
   double limit = params_.max_odometry_jump;
   if (time_usable_ && scans_ > 0) limit += params_.max_odometry_speed * std::max(0.0, stamp - last_stamp_);
+  if (!time_usable_) {
+    if (strides_.size() < kStrideWarmUp) return false;
+    limit = std::max(limit, params_.odometry_stride_factor * typicalStride());
+  }
   return std::hypot(u.x, u.y) > limit;
 }
 
@@ -132,6 +170,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
   odometry_ = Pose2D{};
   step.odometry_doubted = scans_ > 0 && doubted(u, scan.stamp);
   last_stamp_ = scan.stamp;
+  if (scans_ > 0) rememberStride(u);
   const Pose2D before = ekf_.pose();
   const Eigen::Matrix3d before_cov = ekf_.covariance();
   if (scans_ > 0) {

@@ -21,6 +21,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"odom_floor_rot", &m.floor_rot},
       {"max_odometry_jump", &p.max_odometry_jump},
       {"max_odometry_speed", &p.max_odometry_speed},
+      {"odometry_stride_factor", &p.odometry_stride_factor},
       {"use_scan_matching", &p.use_scan_matching},
       {"use_imu", &p.use_imu},
       {"icp_keyframes", &s.keyframes},
