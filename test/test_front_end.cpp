@@ -389,13 +389,23 @@ TEST(ConvertLogCli, WritesEveryPhaseOfADecimationAndLaterStartsAndRefusesBadOpti
   ASSERT_EQ(from3.records.size(), full.records.size() - 3);
   EXPECT_NEAR(from3.records[0].reference.x, full.records[3].reference.x, 1e-5);
   EXPECT_NEAR(from3.records[1].odometry.x, full.records[4].odometry.x, 1e-4);
+  // One stamp on every line (a log printed with too few digits): the odometry is the same.
+  const auto stamped = test::runCommand(bin + " " + in + " " + dir + "/aces5_stamp.log --every 5 --phase 4 --stamp 1.07e9");
+  ASSERT_EQ(stamped.status, 0) << stamped.output;
+  const slam::RobotLog one_stamp = slam::readRobotLog(dir + "/aces5_stamp.log");
+  ASSERT_EQ(one_stamp.records.size(), phase4.records.size());
+  EXPECT_FALSE(slam::checkTimeStamps(one_stamp).usable);
+  EXPECT_EQ(one_stamp.records[7].scan.stamp, 1.07e9);
+  EXPECT_NEAR(one_stamp.records[7].odometry.x, phase4.records[7].odometry.x, 1e-5);
+  EXPECT_NEAR(one_stamp.records[7].odometry.yaw, phase4.records[7].odometry.yaw, 1e-5);
   for (const std::string bad : {"--every 5 --phase 5", "--every 3 --phase -1", "--phase x", "--every 0", "--from -2",
-                                "--from 100000"}) {
+                                "--from 100000", "--stamp 0", "--stamp nan", "--stamp 1e9x", "--stamp"}) {
     const auto refused = test::runCommand(bin + " " + in + " " + dir + "/bad.log " + bad);
     EXPECT_EQ(refused.status, 2) << bad << ": " << refused.output;
     EXPECT_NE(refused.output.find("mrslam_convert_log: "), std::string::npos) << refused.output;
   }
   std::remove((dir + "/aces5.log").c_str());
+  std::remove((dir + "/aces5_stamp.log").c_str());
   std::remove((dir + "/aces_from3.log").c_str());
 }
 

@@ -1,14 +1,17 @@
 // mrslam_convert_log: a robot log as mrslam reads it, written again, for benchmarks that feed
 // other tools the same data (MRPT's icp-slam and rbpf-slam read rawlogs) or a slower scanner.
 //
-//   mrslam_convert_log IN OUT [--from N] [--every K [--phase P]]
+//   mrslam_convert_log IN OUT [--from N] [--every K [--phase P]] [--stamp T]
 //
 // IN: any log mrslam_slam_log reads. OUT: .log (CARMEN text) or .rawlog (MRPT). --from N starts
 // the log at scan N (the first N scans dropped, the robot starting there). --every K then keeps
 // every K-th scan (from scan P on, 0 <= P < K), the odometry of the dropped ones chained into
-// the next kept scan (the raw odometry's error stays that of the full log). Exit 2 on bad input
-// or a failed write.
+// the next kept scan (the raw odometry's error stays that of the full log). --stamp T stamps
+// every scan and odometry reading T, as a log whose time was printed with too few digits.
+// Exit 2 on bad input or a failed write.
+#include <cmath>
 #include <iostream>
+#include <optional>
 #include <string>
 
 #include "mrslam/slam/log_writers.h"
@@ -24,12 +27,22 @@ bool endsWith(const std::string& s, const std::string& tail) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string usage = "usage: mrslam_convert_log IN OUT.{log,rawlog} [--from N] [--every K [--phase P]]";
+  const std::string usage = "usage: mrslam_convert_log IN OUT.{log,rawlog} [--from N] [--every K [--phase P]] [--stamp T]";
   std::string in, out;
   int every = 1, phase = 0, from = 0;
+  std::optional<double> stamp;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--every" || a == "--phase" || a == "--from") {
+    if (a == "--stamp") {
+      if (i + 1 >= argc) return fail(a + " needs a time in seconds\n" + usage);
+      try {
+        size_t used = 0;
+        stamp = std::stod(argv[++i], &used);
+        if (used != std::string(argv[i]).size() || !std::isfinite(*stamp) || *stamp <= 0) throw std::invalid_argument("");
+      } catch (...) {
+        return fail(a + " needs a time in seconds above 0, got '" + std::string(argv[i]) + "'");
+      }
+    } else if (a == "--every" || a == "--phase" || a == "--from") {
       if (i + 1 >= argc) return fail(a + " needs a number\n" + usage);
       int& value = a == "--every" ? every : a == "--phase" ? phase : from;
       const int least = a == "--every" ? 1 : 0;
@@ -61,6 +74,8 @@ int main(int argc, char** argv) {
     for (const auto& w : log.warnings) std::cerr << "warning: " << w << "\n";
     if (from > 0) log = mrslam::slam::fromScan(log, static_cast<size_t>(from));
     if (every > 1) log = mrslam::slam::decimate(log, every, phase);
+    if (stamp)
+      for (auto& record : log.records) record.scan.stamp = *stamp;
     if (endsWith(out, ".log")) mrslam::slam::writeCarmenLog(log, out);
     else mrslam::slam::writeMrptRawlog(log, out);
   } catch (const std::exception& e) {
