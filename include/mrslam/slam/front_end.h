@@ -159,8 +159,9 @@ struct RobotSlamParams {
   // around the odometry's prediction and around the previous pose and keeps the better match.
   double max_odometry_jump = 0.5;   // m
   double max_odometry_speed = 2.0;  // m/s
-  // Without usable time stamps there is no speed to judge by: an increment is doubted when it
-  // is longer than this many times the run's typical increment (see LocalTracker::doubted).
+  // A step with no time (the log's stamps unusable, or this one not advancing) has no speed to
+  // judge by: it is doubted when also longer than this many times the run's typical increment
+  // (see LocalTracker::doubted).
   double odometry_stride_factor = 3.0;
 };
 

@@ -72,13 +72,12 @@ void LocalTracker::rememberStride(const Pose2D& u) {
 }
 
 bool LocalTracker::doubted(const Pose2D& u, double stamp) const {
-  double limit = params_.max_odometry_jump;
-  if (time_usable_ && scans_ > 0) limit += params_.max_odometry_speed * std::max(0.0, stamp - last_stamp_);
-  if (!time_usable_) {
-    if (strides_.size() < kStrideWarmUp) return false;
-    limit = std::max(limit, params_.odometry_stride_factor * typicalStride());
-  }
-  return std::hypot(u.x, u.y) > limit;
+  const double length = std::hypot(u.x, u.y), dt = stamp - last_stamp_;
+  if (time_usable_ && dt > 0) return length > params_.max_odometry_jump + params_.max_odometry_speed * dt;
+  // No time for this step: the log's stamps are unusable, or this one did not advance (stamps
+  // rounded to whole seconds repeat now and then even where most differ).
+  if (strides_.size() < kStrideWarmUp) return false;
+  return length > std::max(params_.max_odometry_jump, params_.odometry_stride_factor * typicalStride());
 }
 
 const LikelihoodGrid& LocalTracker::seedGrid() {
