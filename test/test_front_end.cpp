@@ -536,5 +536,34 @@ TEST(SlamLogCli, EqualTimeStampsAreReportedAndTheRunFollowsTheLines) {
   EXPECT_LT(without, with_time + 0.05);
 }
 
+// A CARMEN log with no ODOM line at all (a laser-only robot): read as such, said once, and
+// tracked from the scans alone (GraphSlam.ALaserOnlyRobotTracksFromTheScansAlone has the figures).
+TEST(SlamLogCli, ALogWithoutOdometryIsTrackedFromTheScans) {
+  const std::string bin = MRSLAM_SLAM_LOG_BIN;
+  const std::string dir = ::testing::TempDir();
+  RobotLog excerpt = test::freiburg079Log();
+  excerpt.records.resize(300);
+  const std::string with_odometry = dir + "/fr079_300.log", laser_only = dir + "/fr079_300_laser_only.log";
+  writeCarmenLog(excerpt, with_odometry);
+  {
+    std::ifstream in(with_odometry);
+    std::ofstream out(laser_only);
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("ODOM ", 0) != 0) out << line << "\n";
+  }
+  EXPECT_TRUE(readRobotLog(with_odometry).has_odometry);
+  ASSERT_FALSE(readRobotLog(laser_only).has_odometry);
+  const auto run = test::runCommand(bin + " " + laser_only + " --trajectory " + dir + "/laser_only.txt");
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("no odometry in the log"), std::string::npos) << run.output;
+  std::vector<Pose2D> reference, estimate;
+  for (const LogRecord& r : excerpt.records) reference.push_back(r.reference);
+  for (const auto& e : bench::readIndexedTrajectory(dir + "/laser_only.txt")) estimate.push_back(e.pose);
+  ASSERT_EQ(estimate.size(), reference.size());
+  const double error = bench::relationError(estimate, reference, bench::randomPairs(reference.size(), 300, 1)).trans_mean;
+  std::printf("Freiburg 079, 300 scans without odometry: global error %.3f m\n", error);
+  EXPECT_LT(error, 0.15);
+}
+
 }  // namespace
 }  // namespace mrslam::slam

@@ -449,6 +449,7 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("odometry slips", s.odometry_slips);
     status.add("odometry increments driven backwards", s.odometry_reversals);
     status.add("scans placed by the correlative search alone", s.seeds_alone);
+    status.add("correlative searches given up", s.searches_given_up);
     status.add("graph nodes", s.nodes);
     status.add("loop closures accepted", s.loop_accepted);
     status.add("loop closures dropped", s.loop_dropped);

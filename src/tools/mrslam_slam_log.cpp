@@ -131,6 +131,8 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   if (!s.last_problem.empty() && s.rejected) out << " (last: " << s.last_problem << ")";
   out << "; odometry doubted " << s.odometry_doubted << ", jumps " << s.odometry_jumps << ", slips " << s.odometry_slips
       << ", driven backwards " << s.odometry_reversals << "; " << s.seeds_alone << " placed by the correlative search alone";
+  if (s.searches_given_up)
+    out << "; " << s.searches_given_up << " correlative searches given up (the map scores alike everywhere: a lost track?)";
   if (robot.name() == "graph")
     out << "\nmrslam_slam_log: graph " << s.nodes << " nodes, " << s.submaps << " submaps (" << s.submaps_redrawn << " redrawn); loop closures "
         << s.loop_accepted << " accepted of " << s.loop_attempts << " tried (rejected: " << s.loop_rejected_score
@@ -198,6 +200,11 @@ int main(int argc, char** argv) {
   const std::unique_ptr<slam::FrontEnd> front_end = slam::makeFrontEnd(params, log.laser_in_base);
   slam::FrontEnd& robot = *front_end;
   robot.setTimeUsable(time.usable);
+  if (!log.has_odometry) {
+    std::cerr << "mrslam_slam_log: warning: " << o.log_path
+              << ": no odometry in the log; each scan's motion is found from the scans alone\n";
+    robot.setOdometryAvailable(false);
+  }
   slam::SimulatedGyro gyro(slam::GyroNoiseModel{}, o.imu_seed);
   std::vector<UsedScan> used;
   const double log_start = log.records.front().scan.stamp;

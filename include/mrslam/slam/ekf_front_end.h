@@ -17,6 +17,7 @@ class EkfFrontEnd : public FrontEnd {
   ScanStep processScan(const LaserScan& scan) override;
   void reset() override;
   void setTimeUsable(bool usable) override { tracker_.setTimeUsable(usable); }
+  void setOdometryAvailable(bool available) override { tracker_.setOdometryAvailable(available); }
 
   Pose2D pose() const override { return tracker_.filter().pose(); }
   Eigen::Matrix3d covariance() const override { return tracker_.filter().covariance(); }

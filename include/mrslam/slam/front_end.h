@@ -163,6 +163,10 @@ struct RobotSlamParams {
   // judge by: it is doubted when also longer than this many times the run's typical increment
   // (see LocalTracker::doubted).
   double odometry_stride_factor = 3.0;
+  // Without odometry (a laser-only robot or log) each scan is predicted to move as the last one
+  // did, this uncertain either way per scan: the correlative search then finds the motion.
+  double no_odometry_sigma_xy = 0.3;   // m
+  double no_odometry_sigma_yaw = 0.3;  // rad
 };
 
 // A piece of the robot's map and where it sits in the map frame. Pieces are never modified once
@@ -188,6 +192,7 @@ struct ScanStep {
   bool odometry_slipped = false;  // a gated match won on the scan's evidence
   bool odometry_reversed = false; // the robot drove the increment backwards, not forwards
   bool seed_alone = false;      // ICP did not confirm the seed, which still beat the prediction clearly
+  int searches_given_up = 0;    // correlative searches that hit kMaxEvaluations (no answer from them)
   bool new_node = false;        // the scan became a pose-graph node
   int loop_closures = 0;        // loop closures accepted at this scan
   bool map_moved = false;       // an optimisation moved the map
@@ -206,6 +211,7 @@ struct FrontEndStats {
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
   size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed
   size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;
+  size_t searches_given_up = 0;  // correlative searches past kMaxEvaluations (seeds and closures)
   size_t optimizations = 0, optimization_failures = 0;
   double tracking_ms = 0, loop_search_ms = 0, optimization_ms = 0;  // where the time went
   std::string last_problem;
@@ -227,6 +233,8 @@ class FrontEnd {
   // Whether scan time stamps mean anything (false: equal, too coarse or not increasing). When
   // they do not, no rule uses the time between scans.
   virtual void setTimeUsable(bool usable) = 0;
+  // false: there is no odometry (a laser-only robot); the scans alone tell the motion.
+  virtual void setOdometryAvailable(bool available) = 0;
 
   // The robot's current pose (base_link in the map frame) and its covariance.
   virtual Pose2D pose() const = 0;

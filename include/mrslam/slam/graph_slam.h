@@ -43,6 +43,7 @@ class GraphSlam : public FrontEnd {
   ScanStep processScan(const LaserScan& scan) override;
   void reset() override;
   void setTimeUsable(bool usable) override { tracker_.setTimeUsable(usable); }
+  void setOdometryAvailable(bool available) override { tracker_.setOdometryAvailable(available); }
   void finish() override;
 
   Pose2D pose() const override;

@@ -27,6 +27,7 @@ class LocalTracker {
   void addOdometry(const Pose2D& increment);
   void addGyro(double yaw_increment, double variance);
   void setTimeUsable(bool usable) { time_usable_ = usable; }
+  void setOdometryAvailable(bool available) { odometry_available_ = available; }
   // One scan through the cascade; the local map takes it as a key scan when it moved enough.
   ScanStep track(const LaserScan& scan);
 
@@ -45,6 +46,9 @@ class LocalTracker {
     SeedPrior isotropic() const { return {xy, yaw, 0.0, 0.0}; }
   };
 
+  // The constant-velocity prediction's added uncertainty and prior when there is no odometry.
+  Eigen::Matrix3d noOdometryCovariance() const;
+  SeedPrior noOdometryPrior() const;
   // The local map's likelihood grid, rebuilt when the local map changed.
   const LikelihoodGrid& seedGrid();
   // The best correlative match in a window around `center`, on the local map.
@@ -77,6 +81,9 @@ class LocalTracker {
   double gyro_yaw_ = 0, gyro_var_ = 0;
   bool have_gyro_ = false;
   bool time_usable_ = true;
+  bool odometry_available_ = true;
+  Pose2D last_motion_;  // the tracked motion of the last scan: the prediction without odometry
+  size_t searches_given_up_ = 0;  // seed searches that hit kMaxEvaluations
   std::deque<double> strides_;  // lengths of the last moving increments, for doubted() without time
   size_t scans_ = 0;
   double last_stamp_ = 0;

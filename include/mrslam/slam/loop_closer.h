@@ -55,7 +55,10 @@ class LoopCloser {
                                         FrontEndStats& stats);
   // How far a node at `pose` is beyond the submap's pose circle (m; negative inside it).
   double beyond(const Submap& submap, const Pose2D& anchor_pose, const Pose2D& pose) const;
-  void clear() { cache_.clear(); }
+  void clear() {
+    cache_.clear();
+    given_up_.clear();
+  }
   // Drops the submap's matchers (built again when next needed).
   void forget(int index) { cache_.erase(index); }
   // Bytes the cached matchers' grids hold now (at most loop_matcher_cache_mb, unless one
@@ -79,6 +82,7 @@ class LoopCloser {
   GraphParams params_;
   ScanMatcherParams icp_params_;
   std::map<int, Matchers> cache_;
+  std::map<int, int> given_up_;  // searches of each submap that gave up (kMaxEvaluations)
   uint64_t clock_ = 0;
 };
 

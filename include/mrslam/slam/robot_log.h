@@ -34,6 +34,7 @@ struct RobotLog {
   Pose2D laser_in_base;        // the laser's mounting pose on the robot
   std::vector<LogRecord> records;
   std::vector<std::string> warnings;  // "path:line: problem" for every skipped line
+  bool has_odometry = true;           // false: a laser-only log (no ODOM line at all)
 };
 
 // Chooses the reader from the file name (.log, .log.gz, .dat, .rawlog).

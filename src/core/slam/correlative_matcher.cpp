@@ -110,7 +110,10 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
     rotated.push_back(std::move(cells));
   }
   const double n = 255.0 * static_cast<double>(points.size());
+  size_t evaluations = 0;
   auto score = [&](const Candidate& c, int h) {
+    ++evaluations;
+    result.exhausted = evaluations > kMaxEvaluations;
     const Level& level = levels_[h];
     int64_t sum = 0;
     for (const auto& [cx, cy] : rotated[c.rotation]) sum += level.at(cx + c.dx, cy + c.dy);
@@ -176,7 +179,7 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
   auto descend = [&](auto&& self, std::vector<Candidate>& candidates, int h) -> void {
     std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
     for (const Candidate& c : candidates) {
-      if (c.score < best || (found && c.score == best)) return;
+      if (result.exhausted || c.score < best || (found && c.score == best)) return;
       if (h == 0) {
         if (is_excluded(c)) continue;
         best = c.score, best_candidate = c, found = true;
@@ -195,7 +198,10 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
     }
   };
   descend(descend, start, top);
-  if (!found) return result;
+  if (!found || result.exhausted) {
+    result.found = false;
+    return result;
+  }
   result.found = true;
   result.score = best;
   result.pose = {window.center.x + best_candidate.dx * res, window.center.y + best_candidate.dy * res,

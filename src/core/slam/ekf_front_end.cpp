@@ -28,6 +28,7 @@ void countStep(const ScanStep& step, FrontEndStats& stats) {
   stats.odometry_slips += step.odometry_slipped;
   stats.odometry_reversals += step.odometry_reversed;
   stats.seeds_alone += step.seed_alone;
+  stats.searches_given_up += step.searches_given_up;
 }
 
 EkfFrontEnd::EkfFrontEnd(const RobotSlamParams& params, const Pose2D& laser_in_base)

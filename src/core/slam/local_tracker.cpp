@@ -25,6 +25,7 @@ void LocalTracker::reset() {
   gyro_yaw_ = gyro_var_ = 0;
   have_gyro_ = false;
   strides_.clear();
+  last_motion_ = Pose2D{};
   scans_ = 0;
 }
 
@@ -98,7 +99,9 @@ CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& ce
   window.sigma_along = prior.along;
   window.along_direction = prior.direction;
   window.min_penalty_along = params_.seed.min_penalty_along;
-  return seed_matcher_->match(points, window, params_.seed.min_score);
+  const CorrelativeMatch match = seed_matcher_->match(points, window, params_.seed.min_score);
+  searches_given_up_ += match.exhausted;
+  return match;
 }
 
 LocalTracker::SeedPrior LocalTracker::seedPrior(const Pose2D& before, const Pose2D& u) const {
@@ -113,6 +116,17 @@ LocalTracker::SeedPrior LocalTracker::seedPrior(const Pose2D& before, const Pose
     prior.direction = before.yaw + std::atan2(u.y, u.x);
   }
   return prior;
+}
+
+Eigen::Matrix3d LocalTracker::noOdometryCovariance() const {
+  const double xy = params_.no_odometry_sigma_xy, yaw = params_.no_odometry_sigma_yaw;
+  return Eigen::Vector3d(xy * xy, xy * xy, yaw * yaw).asDiagonal();
+}
+
+// The constant-velocity guess knows no direction better than another: the prior is as wide as
+// its uncertainty, so that the scan decides wherever it can.
+LocalTracker::SeedPrior LocalTracker::noOdometryPrior() const {
+  return {params_.no_odometry_sigma_xy, params_.no_odometry_sigma_yaw, 0.0, 0.0};
 }
 
 bool LocalTracker::seedConfirms(const ScanStep& step) const {
@@ -164,16 +178,19 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     return step;
   }
   step.used = true;
+  const size_t given_up_before = searches_given_up_;
   const Pose2D raw = odometry_;
-  const Pose2D u = calibration_.correct(raw);
+  // Without odometry the scan is predicted to move as the last one did.
+  const Pose2D u = odometry_available_ ? calibration_.correct(raw) : last_motion_;
   odometry_ = Pose2D{};
-  step.odometry_doubted = scans_ > 0 && doubted(u, scan.stamp);
+  step.odometry_doubted = odometry_available_ && scans_ > 0 && doubted(u, scan.stamp);
   last_stamp_ = scan.stamp;
   if (scans_ > 0) rememberStride(u);
   const Pose2D before = ekf_.pose();
   const Eigen::Matrix3d before_cov = ekf_.covariance();
   if (scans_ > 0) {
     ekf_.predict(u);
+    if (!odometry_available_) ekf_.reset(ekf_.pose(), ekf_.covariance() + noOdometryCovariance());
     if (params_.use_imu && have_gyro_ && gyro_var_ > 0) step.imu_used = ekf_.updateYawIncrement(gyro_yaw_, gyro_var_);
   }
   // What the gyro says the robot turned, for the no-motion hypothesis of a doubted increment.
@@ -185,7 +202,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const SeedParams& sp = params_.seed;
     // The scan as the correlative searches see it (thinned to their grid), made once per scan.
     const Points2 points = sp.enabled ? thinPoints(scanPoints(scan, laser_in_base_), sp.resolution) : Points2{};
-    if (scans_ > 0 && !step.odometry_doubted) {
+    if (scans_ > 0 && odometry_available_ && !step.odometry_doubted) {
       // Some odometry reports speed without its sign (every backward step of the bundled
       // CARMEN logs is written as forward motion): the scan decides the direction.
       if (const auto backward = reversedPrediction(points, before, u)) {
@@ -210,7 +227,9 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
                              : std::max(min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
       // A reversed increment is the scan's guess, not odometry's measurement: its length earns
       // no tighter prior.
-      const SeedPrior prior = step.odometry_reversed ? seedPrior(before, u).isotropic() : seedPrior(before, u);
+      const SeedPrior prior = !odometry_available_ ? noOdometryPrior()
+                              : step.odometry_reversed ? seedPrior(before, u).isotropic()
+                                                       : seedPrior(before, u);
       CorrelativeMatch seed = seedMatch(points, guess, xy, yaw, prior);
       if (step.odometry_doubted) {
         const Pose2D still{before.x, before.y, Pose2D::normalizeAngle(before.yaw + turned)};
@@ -265,11 +284,14 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       step.gated = !step.matched;
     }
   }
-  if (scans_ > 0 && step.matched && !step.odometry_jump && !step.odometry_slipped && !step.odometry_reversed &&
+  if (scans_ > 0 && odometry_available_ && step.matched && !step.odometry_jump && !step.odometry_slipped &&
+      !step.odometry_reversed &&
       (step.match.goodness >= params_.graph.weak_match_goodness ||
        (params_.odometry_calibration.from_seeds && step.seeded && seedConfirms(step))))
     calibration_.learn(raw, before.inverse().compose(ekf_.pose()));
   matcher_.addIfKey(scan, ekf_.pose());
+  last_motion_ = scans_ > 0 ? before.inverse().compose(ekf_.pose()) : Pose2D{};
+  step.searches_given_up = static_cast<int>(searches_given_up_ - given_up_before);
   ++scans_;
   return step;
 }

@@ -12,6 +12,7 @@ constexpr double kRivalXy = 1.0;       // m: a rival must be at least this far..
 constexpr double kRivalYaw = 0.087;    // rad: ...or turned this much (5 degrees) from the match
 constexpr double kIcpAgreeXy = 0.3;    // m: ICP may move the correlative match this far...
 constexpr double kIcpAgreeYaw = 0.087; // rad: ...and turn it this much, or the pair is rejected
+constexpr int kMaxGivenUpPerSubmap = 2;  // searches of one submap that may give up before it is left alone
 }  // namespace
 
 LoopCloser::LoopCloser(const GraphParams& params, const ScanMatcherParams& icp) : params_(params), icp_params_(icp) {}
@@ -63,11 +64,17 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const P
                                                   const Submap& submap, const Pose2D& anchor_pose,
                                                   std::pair<double, double> window,
                                                   FrontEndStats& stats) {
+  // A submap whose searches gave up scores alike everywhere (drawn along a lost track): every
+  // further search of it would cost as much and end the same way. Without this, ACES without
+  // odometry spent more than ten minutes on such searches.
+  if (given_up_[index] >= kMaxGivenUpPerSubmap) return std::nullopt;  // not an attempt
   ++stats.loop_attempts;
   const auto [xy, yaw] = window;
   const Matchers& m = matchersOf(index, submap);
   const SearchWindow search{anchor_pose.inverse().compose(pose), xy, yaw};
   const CorrelativeMatch best = m.correlative->match(points, search, params_.loop_min_score);
+  stats.searches_given_up += best.exhausted;
+  given_up_[index] += best.exhausted;
   if (!best.found) {
     ++stats.loop_rejected_score;
     return std::nullopt;
@@ -84,7 +91,9 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const P
   const double rival_floor = params_.loop_max_rival * best.score;
   const CorrelativeMatch rival =
       m.correlative->match(points, search, rival_floor, &best.pose, kRivalXy, kRivalYaw);
-  if (rival.found) {
+  stats.searches_given_up += rival.exhausted;
+  given_up_[index] += rival.exhausted;
+  if (rival.found || rival.exhausted) {  // a search that gave up has not shown the match unique
     ++stats.loop_rejected_ambiguous;
     return std::nullopt;
   }

@@ -128,6 +128,7 @@ RobotLog readCarmenLog(const std::string& path) {
   const std::string stopped = lines.error();
   if (!stopped.empty()) warn("input ends early (" + stopped + "): the log is truncated");
   if (log.records.empty()) throw LogError(path + ": no readable FLASER line (is this a CARMEN log?)");
+  log.has_odometry = have_odom;
   return log;
 }
 

@@ -22,6 +22,8 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"max_odometry_jump", &p.max_odometry_jump},
       {"max_odometry_speed", &p.max_odometry_speed},
       {"odometry_stride_factor", &p.odometry_stride_factor},
+      {"no_odometry_sigma_xy", &p.no_odometry_sigma_xy},
+      {"no_odometry_sigma_yaw", &p.no_odometry_sigma_yaw},
       {"use_scan_matching", &p.use_scan_matching},
       {"use_imu", &p.use_imu},
       {"icp_keyframes", &s.keyframes},
