@@ -198,10 +198,7 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
     }
   };
   descend(descend, start, top);
-  if (!found || result.exhausted) {
-    result.found = false;
-    return result;
-  }
+  if (!found || result.exhausted) return result;
   result.found = true;
   result.score = best;
   result.pose = {window.center.x + best_candidate.dx * res, window.center.y + best_candidate.dy * res,

@@ -67,7 +67,8 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const P
   // A submap whose searches gave up scores alike everywhere (drawn along a lost track): every
   // further search of it would cost as much and end the same way. Without this, ACES without
   // odometry spent more than ten minutes on such searches.
-  if (given_up_[index] >= kMaxGivenUpPerSubmap) return std::nullopt;  // not an attempt
+  if (const auto it = given_up_.find(index); it != given_up_.end() && it->second >= kMaxGivenUpPerSubmap)
+    return std::nullopt;  // not an attempt
   ++stats.loop_attempts;
   const auto [xy, yaw] = window;
   const Matchers& m = matchersOf(index, submap);
