@@ -24,7 +24,7 @@ class GuardedTransformListener {
  public:
   GuardedTransformListener(tf2_ros::Buffer& buffer, const std::string& odom_frame, const std::string& base_frame,
                            double owner_timeout)
-      : buffer_(buffer), odom_frame_(bare(odom_frame)), base_frame_(bare(base_frame)), timeout_(owner_timeout) {
+      : buffer_(buffer), odom_frame_(bareFrame(odom_frame)), base_frame_(bareFrame(base_frame)), timeout_(owner_timeout) {
     nh_.setCallbackQueue(&queue_);
     tf_sub_ = nh_.subscribe("/tf", 100, &GuardedTransformListener::onTf, this, ros::TransportHints().tcpNoDelay());
     static_sub_ = nh_.subscribe("/tf_static", 100, &GuardedTransformListener::onStaticTf, this);
@@ -47,8 +47,6 @@ class GuardedTransformListener {
   }
 
  private:
-  static std::string bare(const std::string& frame) { return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame; }
-
   void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& event) { insert(event, false); }
   void onStaticTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& event) { insert(event, true); }
 
@@ -56,7 +54,7 @@ class GuardedTransformListener {
     const std::string& publisher = event.getPublisherName();
     const double now = ros::WallTime::now().toSec();
     for (const geometry_msgs::TransformStamped& t : event.getMessage()->transforms) {
-      if (!is_static && bare(t.header.frame_id) == odom_frame_ && bare(t.child_frame_id) == base_frame_ && !odometryFrom(publisher, now))
+      if (!is_static && bareFrame(t.header.frame_id) == odom_frame_ && bareFrame(t.child_frame_id) == base_frame_ && !odometryFrom(publisher, now))
         continue;
       try {
         buffer_.setTransform(t, publisher, is_static);

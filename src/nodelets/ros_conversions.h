@@ -26,6 +26,9 @@ inline std::string printable(const std::string& name) {
   return name.size() > 64 ? out + "..." : out;
 }
 
+// A frame id without tf1's leading '/' (tf2 refuses "/laser"; old bags and drivers still write it).
+inline std::string bareFrame(const std::string& frame) { return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame; }
+
 inline bool finite(const Pose2D& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.yaw); }
 
 inline geometry_msgs::Quaternion yawToQuaternion(double yaw) {

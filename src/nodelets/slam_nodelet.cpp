@@ -4,7 +4,8 @@
 //
 // Subscribes (robot namespace): scan (sensor_msgs/LaserScan), odom (nav_msgs/Odometry, watched
 // for NaN), imu (sensor_msgs/Imu, optional). Publishes: tf map_frame -> odom_frame (REP-105:
-// map -> base is the estimated pose), pose (geometry_msgs/PoseWithCovarianceStamped),
+// map -> base is the estimated pose; with use_odometry false, a laser-only robot or bag, there
+// is no odometry frame and it publishes map_frame -> base_frame itself), pose (geometry_msgs/PoseWithCovarianceStamped),
 // odometry/filtered (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched: the
 // current estimate of every scan's pose, which moves when a loop closes), map
 // (nav_msgs/OccupancyGrid, latched, at most map_publish_rate Hz and only when its content
@@ -15,7 +16,7 @@
 //
 // Timing: callbacks of different topics run in any order, so nothing is accumulated as it
 // arrives. Each scan waits (tf2 message filter) until odom_frame -> base_frame is known at its
-// stamp, then, while a gyro is publishing, until its samples reach that stamp (at most
+// stamp (with odometry), then, while a gyro is publishing, until its samples reach that stamp (at most
 // imu_wait, after which it goes on without the gyro; a loaded host delivers the gyro behind the
 // scans); the odometry increment is taken from tf at the two scan stamps and the gyro samples
 // are integrated over exactly that interval from a time-ordered buffer (slam/gyro_buffer.h).
@@ -66,6 +67,7 @@ class SlamNodelet : public nodelet::Nodelet {
     config.param<std::string>("odom_frame", odom_frame_, "odom");
     config.param<std::string>("base_frame", base_frame_, "base_link");
     config.param("publish_tf", publish_tf_, true);
+    config.param("use_odometry", use_odometry_, true);
     config.param("transform_tolerance", transform_tolerance_, 0.1);
     ScanStampRules stamp_rules;
     config.param("max_time_jump", stamp_rules.max_time_jump, stamp_rules.max_time_jump);
@@ -102,7 +104,7 @@ class SlamNodelet : public nodelet::Nodelet {
     path_pub_ = nh.advertise<nav_msgs::Path>("trajectory", 1, true);
     map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
     metadata_pub_ = nh.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
-    odom_sub_ = nh.subscribe("odom", 100, &SlamNodelet::onOdometry, this);
+    if (use_odometry_) odom_sub_ = nh.subscribe("odom", 100, &SlamNodelet::onOdometry, this);
     // 2 s of a 1 kHz gyro: a sample lost to a full queue leaves a gap, and the scan around it
     // goes without the gyro.
     imu_sub_ = nh.subscribe("imu", 2000, &SlamNodelet::onImu, this);
@@ -111,6 +113,12 @@ class SlamNodelet : public nodelet::Nodelet {
     // push it out, holding its memory: 60 scans of 2M rays stamped ahead took a manager from
     // 108 to 522 MB before these checks came first (132 MB after).
     scan_sub_ = nh.subscribe("scan", 20, &SlamNodelet::onRawScan, this);
+    if (use_odometry_) startOdometryFilter(nh);  // without odometry, scans wait for no transform
+    startTimers(nh, pnh, map_rate, period);
+  }
+
+  // Scans wait here until odom_frame -> base_frame is known at their stamps.
+  void startOdometryFilter(ros::NodeHandle& nh) {
     scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(*tf_buffer_, odom_frame_, 50, nh);
     scan_filter_->registerCallback(&SlamNodelet::onTransformedScan, this);
     scan_filter_->registerFailureCallback(
@@ -124,6 +132,9 @@ class SlamNodelet : public nodelet::Nodelet {
           NODELET_WARN_THROTTLE(5.0, "scan dropped: no transform %s -> %s at its stamp (%s)", odom_frame_.c_str(),
                                 msg->header.frame_id.c_str(), why);
         });
+  }
+
+  void startTimers(ros::NodeHandle& nh, ros::NodeHandle& pnh, double map_rate, double period) {
     map_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / std::max(0.01, map_rate)), &SlamNodelet::onMapTimer, this);
     gyro_wait_timer_ = nh.createWallTimer(ros::WallDuration(kGyroWaitTick), [this](const ros::WallTimerEvent&) { drainScans(); });
 
@@ -233,7 +244,8 @@ class SlamNodelet : public nodelet::Nodelet {
       // entries go (any of them; a lag not recorded is harmless).
       while (scan_arrivals_.size() > kMaxScanArrivals) scan_arrivals_.erase(scan_arrivals_.begin());
     }
-    scan_filter_->add(event);
+    if (use_odometry_) scan_filter_->add(event);
+    else onTransformedScan(event);
   }
 
   void onScan(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
@@ -311,28 +323,9 @@ class SlamNodelet : public nodelet::Nodelet {
       NODELET_WARN_THROTTLE(5.0, "scan refused: %s", stamp_problem.c_str());
       return;
     }
-    if (!robot_) {
-      std::string error;
-      // The laser is bolted on: its newest mounting transform will do.
-      const auto laser = lookupPose2D(*tf_buffer_, base_frame_, msg->header.frame_id, ros::Time(0), &error);
-      if (!laser) {
-        NODELET_WARN_THROTTLE(5.0, "waiting for tf %s -> %s: %s", base_frame_.c_str(), msg->header.frame_id.c_str(), error.c_str());
-        last_problem_ = "no laser transform: " + error;
-        return;
-      }
-      robot_ = slam::makeFrontEnd(params_, *laser);
-    }
-    std::string error;
-    const auto odom = lookupPose2D(*tf_buffer_, odom_frame_, base_frame_, msg->header.stamp, &error);
-    if (!odom || !finite(*odom)) {
-      ++rejected_;
-      last_problem_ = "no odometry at the scan's stamp: " + error;
-      NODELET_WARN_THROTTLE(5.0, "%s", last_problem_.c_str());
-      return;
-    }
-    if (last_odom_) robot_->addOdometry(last_odom_->inverse().compose(*odom));
+    if (!robot_ && !startFrontEnd(msg->header.frame_id)) return;
+    if (use_odometry_ && !addOdometry(msg->header.stamp)) return;
     if (stamp_gate_->last() && params_.use_imu) integrateGyro(*stamp_gate_->last(), t);
-    last_odom_ = odom;
     stamp_gate_->used(t);
     scan_owner_.take(publisher, wall);  // last, so that a scan refused above never claims the topic
     const slam::ScanStep step = robot_->processScan(scanFromMsg(*msg));
@@ -346,6 +339,40 @@ class SlamNodelet : public nodelet::Nodelet {
     stamps_.push_back(msg->header.stamp);
     publishPose(msg->header.stamp);
     recordPoseLag(msg.get());
+  }
+
+  // The front end, once the laser's mounting on base_frame is known: the newest transform will
+  // do (the laser is bolted on); a scan taken in base_frame itself needs none, so a bag with
+  // nothing but scans runs with base_frame set to the laser's frame.
+  bool startFrontEnd(const std::string& laser_frame) {  // mutex_ held
+    std::optional<Pose2D> laser = Pose2D{};
+    std::string error;
+    if (bareFrame(laser_frame) != bareFrame(base_frame_))
+      laser = lookupPose2D(*tf_buffer_, base_frame_, bareFrame(laser_frame), ros::Time(0), &error);
+    if (!laser) {
+      NODELET_WARN_THROTTLE(5.0, "waiting for tf %s -> %s: %s", base_frame_.c_str(), laser_frame.c_str(), error.c_str());
+      last_problem_ = "no laser transform: " + error;
+      return false;
+    }
+    robot_ = slam::makeFrontEnd(params_, *laser);
+    robot_->setOdometryAvailable(use_odometry_);
+    return true;
+  }
+
+  // Hands the odometry's motion since the last scan to the front end; false (the scan is
+  // refused) when odom_frame -> base_frame is not known at the scan's stamp.
+  bool addOdometry(const ros::Time& stamp) {  // mutex_ held
+    std::string error;
+    const auto odom = lookupPose2D(*tf_buffer_, odom_frame_, base_frame_, stamp, &error);
+    if (!odom || !finite(*odom)) {
+      ++rejected_;
+      last_problem_ = "no odometry at the scan's stamp: " + error;
+      NODELET_WARN_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return false;
+    }
+    if (last_odom_) robot_->addOdometry(last_odom_->inverse().compose(*odom));
+    last_odom_ = odom;
+    return true;
   }
 
   // Wall seconds from a scan's arrival to its pose: the waits for odometry and gyro and the
@@ -364,11 +391,13 @@ class SlamNodelet : public nodelet::Nodelet {
   void publishPose(const ros::Time& stamp) {  // mutex_ held
     const Pose2D pose = robot_->pose();
     const Eigen::Matrix3d cov = robot_->covariance();
+    const ros::Time tf_stamp = stamp + ros::Duration(transform_tolerance_);
     if (publish_tf_ && last_odom_) {
       // map -> odom = (map -> base) * (odom -> base)^-1 with the odometry the filter has used.
       const Pose2D map_to_odom = pose.compose(last_odom_->inverse());
-      tf_broadcaster_->sendTransform(
-          transformMsg(map_frame_, odom_frame_, stamp + ros::Duration(transform_tolerance_), map_to_odom));
+      tf_broadcaster_->sendTransform(transformMsg(map_frame_, odom_frame_, tf_stamp, map_to_odom));
+    } else if (publish_tf_ && !use_odometry_) {
+      tf_broadcaster_->sendTransform(transformMsg(map_frame_, bareFrame(base_frame_), tf_stamp, pose));
     }
     auto pose_msg = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
     pose_msg->header.stamp = stamp;
@@ -441,6 +470,8 @@ class SlamNodelet : public nodelet::Nodelet {
     else if (s.used > 10 && s.matched < s.used / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
     else status.summary(diagnostic_msgs::DiagnosticStatus::OK, "tracking");
     status.add("front end", robot_ ? robot_->name() : std::string("none yet"));
+    status.add("motion from", use_odometry_ ? "odometry (" + odom_frame_ + " -> " + base_frame_ + ") and the scans"
+                                            : std::string("the scans alone (use_odometry false)"));
     status.add("scans", s.used);
     status.add("scans matched", s.matched);
     status.add("matches gated out", s.gated);
@@ -509,6 +540,7 @@ class SlamNodelet : public nodelet::Nodelet {
   double imu_wait_ = 0.5;            // s (wall)
   std::string map_frame_, odom_frame_, base_frame_;
   bool publish_tf_ = true;
+  bool use_odometry_ = true;  // false: a laser-only robot, each scan's motion found by matching
   double transform_tolerance_ = 0.1;
   double clock_lag_ = 0;  // the most a scan was stamped ahead of the clock
   int max_rays_ = 10000, trajectory_max_poses_ = 20000;

@@ -134,7 +134,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
 
 const std::vector<std::string>& rosLayerParamNames() {
   static const std::vector<std::string> names = {
-      "map_frame", "odom_frame", "base_frame", "publish_tf", "transform_tolerance",
+      "map_frame", "odom_frame", "base_frame", "publish_tf", "use_odometry", "transform_tolerance",
       "map_publish_rate", "max_time_jump", "restart_scans", "future_tolerance", "max_rays", "trajectory_max_poses",
       "input_owner_timeout", "imu_wait", "imu_max_gap", "gyro_noise_density", "gyro_residual_bias",
       "diagnostics_period"};

@@ -1,0 +1,117 @@
+// rostest (test/laser_only.test): robot.launch with odometry:=false on a real laser-only bag (the
+// CCNY laser_scan_matcher demo: a Hokuyo carried through rooms, /scan only, no odometry, no tf,
+// frame "/laser"). The bag has no reference poses, so the test judges the published poses by the
+// scans' agreement with each other (bench/map_consistency.h): every scan cast from its pose into
+// one grid, the share of wall hits in cells other beams pass through. The same scans cast all
+// from one pose (a robot that believed it stood still) must do far worse, which proves the laser
+// moved and that the bound can fail. Also checks: nearly every scan used, the grid published,
+// and tf map -> laser following the published pose.
+#include <gtest/gtest.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2/utils.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <map>
+#include <mutex>
+
+#include "mrslam/bench/map_consistency.h"
+#include "ros_conversions.h"
+
+namespace {
+
+using mrslam::Pose2D;
+
+struct Recorder {
+  std::mutex mutex;
+  std::map<uint64_t, mrslam::slam::LaserScan> scans;  // by stamp (ns): as the bag played them
+  nav_msgs::Path::ConstPtr trajectory;
+  nav_msgs::OccupancyGrid::ConstPtr map;
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    scans[m->header.stamp.toNSec()] = mrslam::nodelets::scanFromMsg(*m);
+  }
+  void onTrajectory(const nav_msgs::Path::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    trajectory = m;
+  }
+  void onMap(const nav_msgs::OccupancyGrid::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    map = m;
+  }
+};
+
+TEST(LaserOnly, TracksALaserCarriedThroughRoomsFromItsScansAlone) {
+  ros::NodeHandle nh, pnh("~");
+  int expected_scans = 0;
+  double max_conflict = 0, max_share_of_still = 0;
+  pnh.param("expected_scans", expected_scans, 360);
+  pnh.param("max_conflict", max_conflict, 0.2);
+  pnh.param("max_share_of_still", max_share_of_still, 0.25);
+  Recorder rec;
+  auto scan_sub = nh.subscribe("/ccny/scan", 1000, &Recorder::onScan, &rec);
+  auto path_sub = nh.subscribe("/ccny/trajectory", 1, &Recorder::onTrajectory, &rec);
+  auto map_sub = nh.subscribe("/ccny/map", 1, &Recorder::onMap, &rec);
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+
+  // Wait (wall time) for the bag to be played through and the last poses to be published.
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(100.0);
+  while (ros::WallTime::now() < deadline) {
+    ros::WallDuration(0.2).sleep();
+    std::lock_guard<std::mutex> lock(rec.mutex);
+    if (static_cast<int>(rec.scans.size()) >= expected_scans && rec.trajectory && rec.map &&
+        rec.trajectory->poses.size() >= rec.scans.size() * 95 / 100)
+      break;
+  }
+  ros::WallDuration(2.0).sleep();  // the trajectory is republished at most once a second
+  std::lock_guard<std::mutex> lock(rec.mutex);
+  ASSERT_TRUE(rec.map) << "no grid on /ccny/map";
+  ASSERT_TRUE(rec.trajectory) << "no trajectory on /ccny/trajectory";
+  EXPECT_EQ(rec.map->header.frame_id, "ccny/map");
+  const size_t known = std::count_if(rec.map->data.begin(), rec.map->data.end(), [](int8_t v) { return v >= 0; });
+  EXPECT_GT(known, 5000u) << "the map has hardly any known cells";
+  EXPECT_GE(static_cast<int>(rec.scans.size()), expected_scans * 95 / 100) << "the bag's scans did not all arrive";
+  EXPECT_GE(rec.trajectory->poses.size(), rec.scans.size() * 95 / 100) << "scans were not used";
+
+  std::vector<const mrslam::slam::LaserScan*> scans;
+  std::vector<Pose2D> poses, still;
+  for (const auto& p : rec.trajectory->poses) {
+    const auto scan = rec.scans.find(p.header.stamp.toNSec());
+    if (scan == rec.scans.end()) continue;
+    scans.push_back(&scan->second);
+    poses.push_back(mrslam::nodelets::poseFromMsg(p.pose));
+    still.push_back(Pose2D{});
+  }
+  ASSERT_GT(scans.size(), 100u) << "the trajectory's stamps do not match the bag's scans";
+  double travelled = 0;
+  for (size_t i = 1; i < poses.size(); ++i) travelled += std::hypot(poses[i].x - poses[i - 1].x, poses[i].y - poses[i - 1].y);
+  const auto ours = mrslam::bench::mapConsistency(scans, poses, Pose2D{});
+  const auto stood_still = mrslam::bench::mapConsistency(scans, still, Pose2D{});
+  std::printf("laser only: %zu poses, %.1f m travelled, conflict %.4f (all scans cast from one pose: %.4f)\n",
+              poses.size(), travelled, ours.conflict, stood_still.conflict);
+  EXPECT_LT(ours.conflict, max_conflict);
+  EXPECT_LT(ours.conflict, max_share_of_still * stood_still.conflict) << "the scans barely agree better than standing still";
+
+  // tf map -> laser is the newest pose (no odometry frame in between).
+  std::string error;
+  ASSERT_TRUE(buffer.canTransform("ccny/map", "laser", ros::Time(0), &error)) << error;
+  const auto t = buffer.lookupTransform("ccny/map", "laser", ros::Time(0)).transform;
+  const Pose2D last = mrslam::nodelets::poseFromMsg(rec.trajectory->poses.back().pose);
+  EXPECT_NEAR(t.translation.x, last.x, 0.02);
+  EXPECT_NEAR(t.translation.y, last.y, 0.02);
+  EXPECT_NEAR(Pose2D::normalizeAngle(tf2::getYaw(t.rotation) - last.yaw), 0.0, 0.01);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_laser_only");
+  return RUN_ALL_TESTS();
+}
