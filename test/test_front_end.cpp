@@ -151,6 +151,96 @@ TEST(RobotLogs, BadLinesAreSkippedWithTheLineNumberAndUnreadableFilesThrow) {
   std::remove(path.c_str());
 }
 
+// The FLASER lines of a CARMEN log rewritten as ROBOTLASER1 (laser mounted at `mount` on the
+// robot: the laser pose field is the robot pose composed with it) or RAWLASER1 lines, with the
+// beam layout written out as those lines carry it. Other lines are copied.
+std::string rewriteScans(const std::string& flaser_log, const std::string& kind, const Pose2D& mount,
+                         double max_range = 81.9) {
+  std::ifstream in(flaser_log);
+  std::ostringstream out;
+  out.precision(17);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("FLASER ", 0) != 0) {
+      out << line << "\n";
+      continue;
+    }
+    std::istringstream fields(line);
+    std::vector<std::string> t{std::istream_iterator<std::string>(fields), std::istream_iterator<std::string>()};
+    const size_t n = std::stoul(t[1]);
+    out << kind << " 0 " << -M_PI / 2 << " " << M_PI << " " << M_PI / n << " " << max_range << " 0.01 0 " << n;
+    for (size_t i = 0; i < n; ++i) out << " " << t[2 + i];
+    out << " 0";  // no remissions
+    const Pose2D robot{std::stod(t[2 + n]), std::stod(t[3 + n]), std::stod(t[4 + n])};
+    if (kind == "ROBOTLASER1") {
+      const Pose2D laser = robot.compose(mount);
+      out << " " << laser.x << " " << laser.y << " " << laser.yaw << " " << robot.x << " " << robot.y << " " << robot.yaw
+          << " 0 0 0 0 0";
+    }
+    for (size_t k = 8 + n; k < t.size(); ++k) out << " " << t[k];  // time stamp, host, logger time
+    out << "\n";
+  }
+  return out.str();
+}
+
+// Newer CARMEN logs (and the MIT/Freiburg benchmark logs) write their scans as ROBOTLASER1 or
+// RAWLASER1 lines, with the beam layout, maximum range and laser mounting in every line.
+TEST(RobotLogs, RobotLaserAndRawLaserLinesAreReadWithTheirOwnBeamLayout) {
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(200);
+  const std::string dir = ::testing::TempDir();
+  writeCarmenLog(excerpt, dir + "/intel_200.log");
+  const RobotLog flaser = readCarmenLog(dir + "/intel_200.log");
+  const Pose2D mount{0.12, 0.03, 0.05};
+  std::ofstream(dir + "/intel_200_robotlaser.log") << rewriteScans(dir + "/intel_200.log", "ROBOTLASER1", mount);
+  std::ofstream(dir + "/intel_200_rawlaser.log") << rewriteScans(dir + "/intel_200.log", "RAWLASER1", mount);
+  const RobotLog robot = readCarmenLog(dir + "/intel_200_robotlaser.log");
+  const RobotLog raw = readCarmenLog(dir + "/intel_200_rawlaser.log");
+  for (const RobotLog* log : {&robot, &raw}) {
+    ASSERT_EQ(log->records.size(), flaser.records.size());
+    EXPECT_TRUE(log->warnings.empty()) << log->warnings.front();
+    for (size_t k = 0; k < flaser.records.size(); ++k) {
+      const LogRecord &a = flaser.records[k], &b = log->records[k];
+      ASSERT_EQ(a.scan.ranges, b.scan.ranges) << "scan " << k;
+      EXPECT_DOUBLE_EQ(a.scan.angle_min, b.scan.angle_min);
+      EXPECT_DOUBLE_EQ(a.scan.angle_increment, b.scan.angle_increment);
+      EXPECT_DOUBLE_EQ(a.scan.stamp, b.scan.stamp);
+      EXPECT_EQ(a.odometry.x, b.odometry.x) << "scan " << k;
+      EXPECT_EQ(a.odometry.yaw, b.odometry.yaw) << "scan " << k;
+    }
+  }
+  // The line's maximum range, but never past the log's: Intel writes no return as 81.83 m.
+  EXPECT_DOUBLE_EQ(robot.records[0].scan.range_max, 50.0);
+  std::ofstream(dir + "/intel_200_hokuyo.log") << rewriteScans(dir + "/intel_200.log", "RAWLASER1", mount, 5.6);
+  EXPECT_DOUBLE_EQ(readCarmenLog(dir + "/intel_200_hokuyo.log").records[0].scan.range_max, 5.6);
+  EXPECT_TRUE(robot.records[150].has_reference);
+  EXPECT_NEAR(robot.records[150].reference.x, flaser.records[150].reference.x, 1e-9);
+  EXPECT_FALSE(raw.records[150].has_reference);
+  EXPECT_NEAR(robot.laser_in_base.x, mount.x, 1e-9);
+  EXPECT_NEAR(robot.laser_in_base.y, mount.y, 1e-9);
+  EXPECT_NEAR(robot.laser_in_base.yaw, mount.yaw, 1e-9);
+  EXPECT_EQ(raw.laser_in_base.x, 0.0);
+
+  // The same scans twice (FLASER and ROBOTLASER1 lines, as some logs hold them): one set read.
+  std::ofstream(dir + "/intel_200_both.log") << rewriteScans(dir + "/intel_200.log", "ROBOTLASER1", mount)
+                                              << std::ifstream(dir + "/intel_200.log").rdbuf();
+  const RobotLog both = readCarmenLog(dir + "/intel_200_both.log");
+  ASSERT_EQ(both.records.size(), 200u);
+  EXPECT_TRUE(both.warnings.empty()) << "nothing was lost: not partial input";
+  ASSERT_EQ(both.notes.size(), 1u);
+  EXPECT_NE(both.notes[0].find("200 ROBOTLASER1 lines left out: the log's FLASER lines are read"), std::string::npos)
+      << both.notes[0];
+
+  // A line whose counts disagree with its tokens is skipped, naming it.
+  std::ofstream(dir + "/bad_robotlaser.log") << "ROBOTLASER1 0 -1.5708 3.1416 0.0175 81.9 0.01 0 3 1 2 3 0 0 0 0 0 0 0 1.5\n"
+                                             << "RAWLASER1 0 -1.5708 3.1416 0.0175 81.9 0.01 0 3 1 2 3 0 2.5 host 2.5\n"
+                                             << "RAWLASER1 0 -1.5708 3.1416 -1 81.9 0.01 0 3 1 2 3 0 3.5 host 3.5\n";
+  const RobotLog bad = readCarmenLog(dir + "/bad_robotlaser.log");
+  EXPECT_EQ(bad.records.size(), 1u);  // the good RAWLASER1 line
+  ASSERT_EQ(bad.warnings.size(), 2u) << bad.warnings.front();
+  EXPECT_NE(bad.warnings[0].find(":1: malformed ROBOTLASER1 line skipped"), std::string::npos) << bad.warnings[0];
+  EXPECT_NE(bad.warnings[1].find(":3: malformed RAWLASER1 line skipped (beam layout"), std::string::npos) << bad.warnings[1];
+}
+
 TEST(LaserScan, BadBeamsAreSkippedAndBadScansNamed) {
   LaserScan scan;
   scan.angle_min = -M_PI / 2;
@@ -538,6 +628,28 @@ TEST(SlamLogCli, EqualTimeStampsAreReportedAndTheRunFollowsTheLines) {
 
 // A CARMEN log with no ODOM line at all (a laser-only robot): read as such, said once, and
 // tracked from the scans alone (GraphSlam.ALaserOnlyRobotTracksFromTheScansAlone has the figures).
+// End to end on real scans: the Intel excerpt written as ROBOTLASER1 lines maps exactly as its
+// FLASER twin (same scans, beam layout and odometry; before, it was refused as no CARMEN log).
+TEST(SlamLogCli, ARobotLaserLogIsTrackedAsItsFlaserTwin) {
+  const std::string bin = MRSLAM_SLAM_LOG_BIN;
+  const std::string dir = ::testing::TempDir();
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(300);
+  writeCarmenLog(excerpt, dir + "/intel_300.log");
+  std::ofstream(dir + "/intel_300_robotlaser.log") << rewriteScans(dir + "/intel_300.log", "ROBOTLASER1", Pose2D{});
+  const auto flaser = test::runCommand(bin + " " + dir + "/intel_300.log --trajectory " + dir + "/flaser.txt");
+  const auto robot = test::runCommand(bin + " " + dir + "/intel_300_robotlaser.log --trajectory " + dir + "/robotlaser.txt");
+  ASSERT_EQ(flaser.status, 0) << flaser.output;
+  ASSERT_EQ(robot.status, 0) << robot.output;
+  const auto a = bench::readIndexedTrajectory(dir + "/flaser.txt"), b = bench::readIndexedTrajectory(dir + "/robotlaser.txt");
+  ASSERT_EQ(a.size(), 300u);
+  ASSERT_EQ(b.size(), a.size());
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].pose.x, b[k].pose.x) << "scan " << k;
+    EXPECT_EQ(a[k].pose.yaw, b[k].pose.yaw) << "scan " << k;
+  }
+}
+
 TEST(SlamLogCli, ALogWithoutOdometryIsTrackedFromTheScans) {
   const std::string bin = MRSLAM_SLAM_LOG_BIN;
   const std::string dir = ::testing::TempDir();

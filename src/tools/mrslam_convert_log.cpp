@@ -71,6 +71,7 @@ int main(int argc, char** argv) {
   if (!endsWith(out, ".log") && !endsWith(out, ".rawlog")) return fail(out + ": output must end in .log or .rawlog");
   try {
     mrslam::slam::RobotLog log = mrslam::slam::readRobotLog(in);
+    for (const auto& note : log.notes) std::cerr << "note: " << note << "\n";
     for (const auto& w : log.warnings) std::cerr << "warning: " << w << "\n";
     if (from > 0) log = mrslam::slam::fromScan(log, static_cast<size_t>(from));
     if (every > 1) log = mrslam::slam::decimate(log, every, phase);

@@ -236,6 +236,7 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     return fail(e.what());
   }
+  for (const auto& note : log.notes) std::cerr << "note: " << note << "\n";
   for (const auto& w : log.warnings) std::cerr << "warning: " << w << "\n";
   if (!log.warnings.empty() && !o.allow_partial) {
     std::cerr << "mrslam_log_to_bag: " << o.log_path << ": partial input (" << log.warnings.size()

@@ -5,8 +5,9 @@
 //                   [--simulated-imu [--imu-seed N]] [--no-scan-matching] [--no-loop-closure]
 //                   [--window START:END] [--allow-partial] [--stats]
 //
-// LOG: CARMEN .log/.log.gz (odometry from the ODOM lines; the FLASER poses are the reference
-// and never input), Mines .dat, MRPT .rawlog. OUT.txt gets one line per scan used,
+// LOG: CARMEN .log/.log.gz (scans from FLASER, ROBOTLASER1 or RAWLASER1 lines; odometry from
+// the ODOM lines; the scan lines' robot poses are the reference and never input), Mines .dat,
+// MRPT .rawlog. OUT.txt gets one line per scan used,
 // "timestamp x y yaw scan": base_link in the robot's map frame (its pose at the first scan),
 // the final estimate after every loop closure, and the scan's index in the log. --simulated-imu
 // feeds a SIMULATED MEMS gyro made from the log's reference trajectory (logs with reference
@@ -179,6 +180,7 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     return fail(e.what());
   }
+  for (const auto& note : log.notes) std::cerr << "note: " << note << "\n";
   for (size_t i = 0; i < log.warnings.size() && i < 20; ++i) std::cerr << "warning: " << log.warnings[i] << "\n";
   if (log.warnings.size() > 20) std::cerr << "warning: ... and " << log.warnings.size() - 20 << " more\n";
   if (!log.warnings.empty() && !o.allow_partial) {

@@ -1,5 +1,6 @@
 // Real recorded robot logs as one sequence of laser scans, each with the wheel-odometry
-// increment since the previous scan. Readers for CARMEN (.log / .log.gz), the Mines
+// increment since the previous scan. Readers for CARMEN (.log / .log.gz: FLASER, ROBOTLASER1
+// or RAWLASER1 scans, ODOM odometry), the Mines
 // ParisTech CoreSLAM .dat format and MRPT .rawlog. Bad or truncated lines are skipped
 // with a warning naming the line; an unreadable file throws LogError.
 #pragma once
@@ -34,6 +35,7 @@ struct RobotLog {
   Pose2D laser_in_base;        // the laser's mounting pose on the robot
   std::vector<LogRecord> records;
   std::vector<std::string> warnings;  // "path:line: problem" for every skipped line
+  std::vector<std::string> notes;     // choices the reader made that lose nothing (not partial input)
   bool has_odometry = true;           // false: a laser-only log (no ODOM line at all)
 };
 

@@ -1,4 +1,7 @@
-// CARMEN text logs (FLASER and ODOM lines).
+// CARMEN text logs: ODOM lines and the front laser's scans, as FLASER (the old format),
+// ROBOTLASER1 (laser and robot pose with the scan) or RAWLASER1 (the scan alone) lines. A log
+// may hold the same scans in more than one of these: the first of FLASER, ROBOTLASER1,
+// RAWLASER1 that it has is read, and the others are counted in one warning.
 //
 // Odometry. In the corrected Radish logs the FLASER pose fields hold the reference (corrected)
 // pose, and right after every FLASER an ODOM line with ipc timestamp 0 repeats that pose: the
@@ -8,6 +11,7 @@
 // start to last ODOM reading) and chained across segments; in a raw log without re-anchoring
 // this is simply the increment between the ODOM readings around the two scans. The FLASER
 // pose and odometry fields are kept as reference only.
+#include <algorithm>
 #include <cstdlib>
 #include <sstream>
 #include <vector>
@@ -45,12 +49,25 @@ bool number(const std::string& token, double& value) {
   return !token.empty() && end == token.c_str() + token.size();
 }
 
-// FLASER n r1..rn x y theta odom_x odom_y odom_theta ipc_timestamp [host logger_timestamp]:
-// the token count must agree with n, or every field after the ranges would be read shifted.
-std::string parseFlaser(const std::string& line, LaserScan& scan, Pose2D& reference, double range_max) {
+std::vector<std::string> tokensOf(const std::string& line) {
   std::istringstream in(line);
   std::vector<std::string> tokens;
   for (std::string t; in >> t;) tokens.push_back(t);
+  return tokens;
+}
+
+// A count token: a whole number in [0, 100000].
+bool count(const std::string& token, size_t& n) {
+  double v = 0;
+  if (!number(token, v) || !(v >= 0 && v <= 100000) || v != std::floor(v)) return false;
+  n = static_cast<size_t>(v);
+  return true;
+}
+
+// FLASER n r1..rn x y theta odom_x odom_y odom_theta ipc_timestamp [host logger_timestamp]:
+// the token count must agree with n, or every field after the ranges would be read shifted.
+std::string parseFlaser(const std::string& line, LaserScan& scan, Pose2D& reference, double range_max) {
+  const std::vector<std::string> tokens = tokensOf(line);
   double count = 0;
   if (tokens.size() < 2 || !number(tokens[1], count) || count < 1 || count > 100000 || count != std::floor(count))
     return "malformed FLASER line skipped (no beam count)";
@@ -77,6 +94,82 @@ std::string parseFlaser(const std::string& line, LaserScan& scan, Pose2D& refere
   return "";
 }
 
+// ROBOTLASER1 / RAWLASER1 lines, with their own beam layout:
+//   type start_angle field_of_view angular_resolution maximum_range accuracy remission_mode
+//   n r1..rn m e1..em
+//   [ROBOTLASER1 only: laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv
+//    forward_safety_dist side_safety_dist turn_axis]
+//   ipc_timestamp [host logger_timestamp]
+struct RangeLine {
+  LaserScan scan;
+  Pose2D laser_pose, robot_pose;  // ROBOTLASER1 only
+};
+
+std::string parseRangeLine(const std::string& line, bool with_poses, double fallback_range_max, RangeLine& out) {
+  const std::vector<std::string> tokens = tokensOf(line);
+  const std::string what = "malformed " + tokens[0] + " line skipped";
+  double header[7];
+  size_t n = 0, m = 0;
+  if (tokens.size() < 9) return what + " (too short)";
+  for (int k = 0; k < 7; ++k)
+    if (!number(tokens[1 + k], header[k]) || !std::isfinite(header[k])) return what + " (beam layout)";
+  if (!count(tokens[8], n) || n < 1) return what + " (no beam count)";
+  if (tokens.size() < 10 + n || !count(tokens[9 + n], m)) return what + " (no remission count after " + std::to_string(n) + " beams)";
+  const size_t trailing = (with_poses ? 11 : 0) + 1;
+  const size_t fields = tokens.size() >= 10 + n + m ? tokens.size() - (10 + n + m) : 0;
+  if (fields != trailing && fields != trailing + 2)
+    return what + " (" + std::to_string(n) + " beams and " + std::to_string(m) + " remissions announced, but the " +
+           "token count does not agree)";
+  const double start = header[1], resolution = header[3], max_range = header[4];
+  if (!(resolution > 0) || (n - 1) * resolution > 2 * M_PI + 1e-6 || std::abs(start) > 2 * M_PI)
+    return what + " (beam layout: start " + std::to_string(start) + ", resolution " + std::to_string(resolution) + ")";
+  out.scan.ranges.resize(n);
+  double v = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!number(tokens[9 + i], v)) return what + " (beam " + std::to_string(i) + ")";
+    out.scan.ranges[i] = static_cast<float>(v);
+  }
+  const size_t tail = 10 + n + m;
+  double t[12];
+  for (size_t k = 0; k < trailing; ++k)
+    if (!number(tokens[tail + k], t[k]) || !std::isfinite(t[k])) return what + " (pose or time)";
+  if (with_poses) {
+    out.laser_pose = {t[0], t[1], t[2]};
+    out.robot_pose = {t[3], t[4], t[5]};
+  }
+  out.scan.stamp = t[trailing - 1];
+  out.scan.angle_min = start;
+  out.scan.angle_increment = resolution;
+  out.scan.range_min = 0.01;
+  // Readings at or beyond the maximum range are no return: the line's own, where plausible,
+  // but never past the log's (PARAM, or 50 m): SICK logs write "no return" as 81.83 or 81.91 m
+  // while their lines say 81.9, and a wall drawn 81.83 m out is worse than a far one lost.
+  out.scan.range_max = (max_range > 1.0) ? std::min(max_range, fallback_range_max) : fallback_range_max;
+  return "";
+}
+
+// The scans of one line type with the odometry chained since each one's predecessor.
+struct ScanStream {
+  std::vector<LogRecord> records;
+  Pose2D since_scan;     // odometry chained over finished segments since the last scan
+  Pose2D segment_start;  // where the current segment stood at the last scan
+  bool have_laser_in_base = false;
+  Pose2D laser_in_base;
+
+  // The odometry segment ended at `last` and a new one starts at `anchor` (a re-anchor).
+  void reanchor(const Pose2D& last, const Pose2D& anchor) {
+    since_scan = since_scan.compose(segment_start.inverse().compose(last));
+    segment_start = anchor;
+  }
+  void startAt(const Pose2D& anchor) { segment_start = anchor; }
+  void add(LogRecord record, bool have_odom, const Pose2D& odom_now) {
+    if (!records.empty() && have_odom) record.odometry = since_scan.compose(segment_start.inverse().compose(odom_now));
+    since_scan = Pose2D{};
+    segment_start = odom_now;
+    records.push_back(std::move(record));
+  }
+};
+
 }  // namespace
 
 RobotLog readCarmenLog(const std::string& path) {
@@ -85,8 +178,10 @@ RobotLog readCarmenLog(const std::string& path) {
   RobotLog log;
   log.path = path;
   log.format = "carmen";
-  Pose2D since_scan;            // odometry chained over finished segments since the last scan
-  Pose2D segment_start, segment_last;
+  enum Kind { kFlaser, kRobotLaser, kRawLaser, kKinds };
+  static const char* const kNames[kKinds] = {"FLASER", "ROBOTLASER1", "RAWLASER1"};
+  ScanStream streams[kKinds];
+  Pose2D segment_last;  // the newest ODOM reading
   bool have_odom = false;
   // SICK LMS logs write no return as 81.91 m (the PARAM line says 80.99), some as 50 m.
   double range_max = 50.0;
@@ -103,14 +198,12 @@ RobotLog readCarmenLog(const std::string& path) {
       double stamp = 0;
       if (!parseOdom(line, pose, stamp)) { warn("malformed ODOM line skipped"); continue; }
       if (!have_odom) {
-        segment_start = segment_last = pose;
+        for (ScanStream& s : streams) s.startAt(pose);
         have_odom = true;
       } else if (stamp == 0.0) {  // re-anchored: close the segment, start a new one here
-        since_scan = since_scan.compose(segment_start.inverse().compose(segment_last));
-        segment_start = segment_last = pose;
-      } else {
-        segment_last = pose;
+        for (ScanStream& s : streams) s.reanchor(segment_last, pose);
       }
+      segment_last = pose;
     } else if (line.rfind("FLASER ", 0) == 0) {
       LogRecord record;
       const std::string problem = parseFlaser(line, record.scan, record.reference, range_max);
@@ -118,16 +211,39 @@ RobotLog readCarmenLog(const std::string& path) {
       // Time stamps are kept as they are, even going backwards: checkTimeStamps() judges them
       // and a run falls back to the order of the lines rather than dropping scans.
       record.has_reference = true;
-      if (!log.records.empty() && have_odom)
-        record.odometry = since_scan.compose(segment_start.inverse().compose(segment_last));
-      since_scan = Pose2D{};
-      segment_start = segment_last;
-      log.records.push_back(std::move(record));
+      streams[kFlaser].add(std::move(record), have_odom, segment_last);
+    } else if (line.rfind("ROBOTLASER1 ", 0) == 0 || line.rfind("RAWLASER1 ", 0) == 0) {
+      const Kind kind = line[1] == 'O' ? kRobotLaser : kRawLaser;
+      RangeLine parsed;
+      const std::string problem = parseRangeLine(line, kind == kRobotLaser, range_max, parsed);
+      if (!problem.empty()) { warn(problem); continue; }
+      ScanStream& stream = streams[kind];
+      LogRecord record;
+      record.scan = std::move(parsed.scan);
+      if (kind == kRobotLaser) {
+        // The robot pose is the reference (corrected logs) or the odometry (raw ones): kept for
+        // evaluation only, as FLASER's; the laser's mounting is read off the first line.
+        record.has_reference = true;
+        record.reference = parsed.robot_pose;
+        if (!stream.have_laser_in_base) stream.laser_in_base = parsed.robot_pose.inverse().compose(parsed.laser_pose);
+        stream.have_laser_in_base = true;
+      }
+      stream.add(std::move(record), have_odom, segment_last);
     }
   }
   const std::string stopped = lines.error();
   if (!stopped.empty()) warn("input ends early (" + stopped + "): the log is truncated");
-  if (log.records.empty()) throw LogError(path + ": no readable FLASER line (is this a CARMEN log?)");
+  int used = kKinds;
+  for (int k = kKinds - 1; k >= 0; --k)
+    if (!streams[k].records.empty()) used = k;
+  if (used == kKinds)
+    throw LogError(path + ": no readable FLASER, ROBOTLASER1 or RAWLASER1 line (is this a CARMEN log?)");
+  for (int k = 0; k < kKinds; ++k)
+    if (k != used && !streams[k].records.empty())
+      log.notes.push_back(path + ": " + std::to_string(streams[k].records.size()) + " " + kNames[k] +
+                             " lines left out: the log's " + kNames[used] + " lines are read");
+  log.records = std::move(streams[used].records);
+  log.laser_in_base = streams[used].laser_in_base;
   log.has_odometry = have_odom;
   return log;
 }
