@@ -785,8 +785,8 @@ TEST(GraphSlam, LongCorridorStepsAreNotTakenBackwards) {
 // A wrong loop closure (two places far apart said to be one) must not wreck the map: the
 // optimum disagrees with it, it is dropped, and the trajectory stays where it was. With Ceres
 // the Cauchy loss also caps its pull before it is dropped; MRPT's solver has no robust loss.
-// Returns the global error after the false closure.
-double afterFalseClosure(const std::string& solver) {
+// Returns how many closures the false one took down with it (dropped besides itself).
+size_t trueClosuresDroppedAfterAFalseOne(const std::string& solver) {
   const RobotLog& log = intelLog();
   RobotSlamParams params = defaults();
   params.graph.solver = solver;
@@ -811,16 +811,19 @@ double afterFalseClosure(const std::string& solver) {
     EXPECT_LT(after, before + 0.02);
     for (const PoseGraphEdge& e : slam.edges()) EXPECT_FALSE(e.loop_closure && e.from == last / 3 && e.to == last);
   }
-  return after;
+  bool false_one_kept = false;
+  for (const PoseGraphEdge& e : slam.edges()) false_one_kept |= e.loop_closure && e.from == last / 3 && e.to == last;
+  if (false_one_kept) std::printf("%s kept the false closure\n", solver.c_str());
+  return slam.stats().loop_dropped - dropped - (false_one_kept ? 0 : 1);
 }
 
 TEST(GraphSlam, AnInjectedFalseClosureIsDroppedAndTheMapSurvives) {
-  const double ceres = afterFalseClosure("ceres");
+  EXPECT_EQ(trueClosuresDroppedAfterAFalseOne("ceres"), 0u);
   // Why Ceres is the default solver: without a robust loss (MRPT's SPA) the false closure pulls
-  // the optimum so far that true closures are the ones found wrong and dropped (7 of them, and
-  // 0.229 m against Ceres' 0.106 m; 3x before the calibration learnt from seeded matches too).
-  const double mrpt = afterFalseClosure("mrpt");
-  EXPECT_GT(mrpt, 2 * ceres);
+  // the optimum so far that true closures are found wrong and dropped with it (6 of them; the
+  // map survived on what was left: 0.120 -> 0.123 m, Ceres 0.118 -> 0.118 m; before a poorly
+  // matched node's edges were both weak, the 7 it dropped cost 0.229 m).
+  EXPECT_GE(trueClosuresDroppedAfterAFalseOne("mrpt"), 3u);
 }
 
 TEST(OdometryCalibration, LearnsIntelsTurnDriftFromMatchedSteps) {

@@ -2,7 +2,8 @@
 //
 // The paper's cascaded EKF stays the local tracker; its poses are the odometry of a graph whose
 // nodes are key scans (every node_distance / node_angle). Consecutive nodes are joined by the
-// tracker's motion; every new node is searched against older finished submaps (loop_closer.h),
+// tracker's motion, weak (weak_edge_factor) where a scan was matched poorly: into and out of a
+// node whose own scan was, with the motion across that node kept at full weight; every new node is searched against older finished submaps (loop_closer.h),
 // and every submap when it is finished against the older nodes among its poses (as Cartographer
 // matches nodes and submaps both ways: a stretch the tracker drew badly before the robot came
 // back is only found from the return's submap); each closure found becomes an edge with a
@@ -68,7 +69,9 @@ class GraphSlam : public FrontEnd {
     Pose2D tracker_pose;  // in the tracker's frame
     double travel = 0;    // m along the trajectory
     Points2 points;       // returns in base_link, thinned
-    bool weak = false;    // the tracker's motion from the previous node is weak (odometryEdge)
+    bool weak = false;    // a scan since the previous node (this one's included) was matched weakly
+    bool weak_before = false;  // ...one before this node's own scan was
+    bool own_weak = false;     // this node's own scan was: its pose alone may be off
   };
   struct Closure {         // a loop closure: node `to` at `measurement` in the frame of `from`
     int from = 0, to = 0;
@@ -83,7 +86,15 @@ class GraphSlam : public FrontEnd {
   };
 
   bool isNewNode(const Pose2D& tracker_pose) const;
-  void addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step);
+  // `weak_before`: a scan between the last node and this one was matched weakly; `own_weak`:
+  // this one was.
+  void addNode(const LaserScan& scan, const Pose2D& tracker_pose, bool weak_before, bool own_weak, ScanStep& step);
+  // The tracker's motion from the previous node to `node`, and around the previous node when
+  // its own scan alone was matched weakly.
+  void addTrackerEdges(int node);
+  // Whether the tracker's motion from node `to` - 1 to `to` is weak: a scan matched weakly
+  // since that node, or that node's own scan, whose pose the motion starts from.
+  bool weakEdge(int to) const;
   Submap& activeSubmap();
   // Where node `node` lies in the frame of the submap's anchor, by the tracker and by the
   // optimised graph.
@@ -109,10 +120,10 @@ class GraphSlam : public FrontEnd {
   std::pair<double, double> weakMotionSlack(int a, int b) const;
   void expirePending();
   double loopLength() const;  // a closure's length in graphDistances
-  // Per node: next to a weak tracker edge and tied to the map by no closure yet. Such a node may
-  // lie further off than any window grown with the graph distance (the start of a run before
-  // the tracker matched anything: Intel every 5th, 44 degrees), so the reverse search looks for
-  // it in the loop_lone_window.
+  // Per node: next to a stretch the tracker matched weakly (Node::weak) and tied to the map by
+  // no closure yet. Such a node may lie further off than any window grown with the graph
+  // distance (the start of a run before the tracker matched anything: Intel every 5th, 44
+  // degrees), so the reverse search looks for it in the loop_lone_window.
   std::vector<char> loneNodes() const;
   PoseGraphEdge odometryEdge(int from, int to, bool weak) const;
   PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
@@ -130,8 +141,8 @@ class GraphSlam : public FrontEnd {
   std::vector<ScanRef> scans_;
   std::vector<Closure> pending_;  // closures waiting for a consistent partner
   double travel_ = 0;
-  bool weak_since_node_ = false;
-  int unoptimized_closures_ = 0, nodes_since_optimization_ = 0;  // a scan since the last node was matched poorly or not at all
+  bool weak_since_node_ = false;  // a scan since the last node was matched poorly or not at all
+  int unoptimized_closures_ = 0, nodes_since_optimization_ = 0;
   Pose2D last_tracker_pose_;
   uint64_t map_version_ = 0;
   FrontEndStats stats_;

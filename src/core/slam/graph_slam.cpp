@@ -50,12 +50,12 @@ ScanStep GraphSlam::processScan(const LaserScan& scan) {
   // How much the tracker's motion since the last node can be trusted.
   const bool weak = !step.matched || step.odometry_jump || step.odometry_slipped || step.odometry_reversed ||
                     step.match.goodness < params_.graph.weak_match_goodness;
-  weak_since_node_ = weak_since_node_ || weak;
   const Pose2D tracker_pose = tracker_.filter().pose();
   if (!nodes_.empty())
     travel_ += std::hypot(tracker_pose.x - last_tracker_pose_.x, tracker_pose.y - last_tracker_pose_.y);
   last_tracker_pose_ = tracker_pose;
-  if (isNewNode(tracker_pose)) addNode(scan, tracker_pose, step);
+  if (isNewNode(tracker_pose)) addNode(scan, tracker_pose, weak_since_node_, weak, step);
+  else weak_since_node_ = weak_since_node_ || weak;
   const int node = static_cast<int>(nodes_.size()) - 1;
   const Pose2D offset = nodes_.back().tracker_pose.inverse().compose(tracker_pose);
   Submap& submap = activeSubmap();
@@ -64,6 +64,19 @@ ScanStep GraphSlam::processScan(const LaserScan& scan) {
   ++map_version_;
   return step;
 }
+
+void GraphSlam::addTrackerEdges(int n) {
+  if (n == 0) return;
+  edges_.push_back(odometryEdge(n - 1, n, weakEdge(n)));
+  // A scan matched poorly between two matched well (scans metres apart that share little with
+  // the map: Intel every 5th, 2-7 degrees off) puts its node off alone. The motion into it and
+  // out of it is as unsure as the node (both weak, so a closure may move it alone), but the
+  // tracker placed the next scan by the map, not by it: the motion across it keeps its weight.
+  if (n >= 2 && nodes_[n - 1].own_weak)
+    edges_.push_back(odometryEdge(n - 2, n, nodes_[n - 2].own_weak || nodes_[n - 1].weak_before || nodes_[n].weak));
+}
+
+bool GraphSlam::weakEdge(int to) const { return nodes_[to].weak || nodes_[to - 1].own_weak; }
 
 bool GraphSlam::isNewNode(const Pose2D& tracker_pose) const {
   if (nodes_.empty()) return true;
@@ -94,7 +107,8 @@ void GraphSlam::followOptimizedPoses() {
   }
 }
 
-void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanStep& step) {
+void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, bool weak_before, bool own_weak,
+                        ScanStep& step) {
   const int n = static_cast<int>(nodes_.size());
   Node node{tracker_pose, travel_, thinPoints(scanPoints(scan, tracker_.laserInBase()), params_.graph.loop_resolution)};
   if (n == 0) {
@@ -103,9 +117,12 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, ScanS
     const Pose2D motion = nodes_.back().tracker_pose.inverse().compose(tracker_pose);
     poses_.push_back(poses_.back().compose(motion));
   }
-  node.weak = n > 0 && weak_since_node_;
+  // The first node is the map's origin: nothing to match it against, nothing off.
+  node.weak_before = n > 0 && weak_before;
+  node.own_weak = n > 0 && own_weak;
+  node.weak = node.weak_before || node.own_weak;
   nodes_.push_back(std::move(node));
-  if (n > 0) edges_.push_back(odometryEdge(n - 1, n, nodes_.back().weak));
+  addTrackerEdges(n);
   weak_since_node_ = false;
   int finished = -1;
   if (submaps_.empty() || activeSubmap().nodes() >= params_.graph.submap_nodes) {
