@@ -5,8 +5,8 @@
 // Subscribes (robot namespace): scan (sensor_msgs/LaserScan), odom (nav_msgs/Odometry, watched
 // for NaN), imu (sensor_msgs/Imu, optional). Publishes: tf map_frame -> odom_frame (REP-105:
 // map -> base is the estimated pose; with use_odometry false, a laser-only robot or bag, there
-// is no odometry frame and it publishes map_frame -> base_frame itself), pose (geometry_msgs/PoseWithCovarianceStamped),
-// odometry/filtered (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched: the
+// is no odometry frame and it publishes map_frame -> base_frame itself), pose
+// (geometry_msgs/PoseWithCovarianceStamped), odometry/filtered (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched: the
 // current estimate of every scan's pose, which moves when a loop closes), map
 // (nav_msgs/OccupancyGrid, latched, at most map_publish_rate Hz and only when its content
 // changed) and map_metadata, diagnostics.
@@ -15,11 +15,12 @@
 // transforms from a second node, are refused and counted (input_owner_timeout).
 //
 // Timing: callbacks of different topics run in any order, so nothing is accumulated as it
-// arrives. Each scan waits (tf2 message filter) until odom_frame -> base_frame is known at its
-// stamp (with odometry), then, while a gyro is publishing, until its samples reach that stamp (at most
-// imu_wait, after which it goes on without the gyro; a loaded host delivers the gyro behind the
-// scans); the odometry increment is taken from tf at the two scan stamps and the gyro samples
-// are integrated over exactly that interval from a time-ordered buffer (slam/gyro_buffer.h).
+// arrives. With odometry, each scan waits (tf2 message filter) until odom_frame -> base_frame
+// is known at its stamp; then, while a gyro is publishing, until its samples reach that stamp
+// (at most imu_wait, after which it goes on without the gyro; a loaded host delivers the gyro
+// behind the scans); the odometry increment is taken from tf at the two scan stamps and the
+// gyro samples are integrated over exactly that interval from a time-ordered buffer
+// (slam/gyro_buffer.h).
 //
 // Zero copy: every map is a freshly allocated grid composed from the front end's map pieces
 // outside the lock the scan callback needs, published as a shared pointer and never touched
@@ -466,7 +467,12 @@ class SlamNodelet : public nodelet::Nodelet {
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     std::lock_guard<std::mutex> lock(mutex_);
     const slam::FrontEndStats s = robot_ ? robot_->stats() : slam::FrontEndStats{};
+    const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
     if (!robot_) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for scans and tf: " + last_problem_);
+    else if (!use_odometry_ && !tf_refusals.holder.empty())
+      // Both would be parents of base_frame: tf takes whichever came last.
+      status.summary(diagnostic_msgs::DiagnosticStatus::WARN, printable(tf_refusals.holder) + " publishes " + odom_frame_ +
+                                                                  " -> " + base_frame_ + " but use_odometry is false");
     else if (s.used > 10 && s.matched < s.used / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
     else status.summary(diagnostic_msgs::DiagnosticStatus::OK, "tracking");
     status.add("front end", robot_ ? robot_->name() : std::string("none yet"));
@@ -503,7 +509,6 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("resets (time jumps)", resets_);
     status.add("largest lead of a scan over the clock (s)", clock_lag_);
     status.add("scans refused from a second publisher", impostor_scans_);
-    const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
     status.add("odometry transforms refused from a second publisher", tf_refusals.transforms);
     status.add("odometry publisher", tf_refusals.holder.empty() ? std::string("none yet") : printable(tf_refusals.holder));
     status.add("scan publisher", scan_owner_.holder().empty() ? std::string("none yet") : printable(scan_owner_.holder()));
