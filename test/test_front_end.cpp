@@ -626,8 +626,6 @@ TEST(SlamLogCli, EqualTimeStampsAreReportedAndTheRunFollowsTheLines) {
   EXPECT_LT(without, with_time + 0.05);
 }
 
-// A CARMEN log with no ODOM line at all (a laser-only robot): read as such, said once, and
-// tracked from the scans alone (GraphSlam.ALaserOnlyRobotTracksFromTheScansAlone has the figures).
 // End to end on real scans: the Intel excerpt written as ROBOTLASER1 lines maps exactly as its
 // FLASER twin (same scans, beam layout and odometry; before, it was refused as no CARMEN log).
 TEST(SlamLogCli, ARobotLaserLogIsTrackedAsItsFlaserTwin) {
@@ -650,6 +648,8 @@ TEST(SlamLogCli, ARobotLaserLogIsTrackedAsItsFlaserTwin) {
   }
 }
 
+// A CARMEN log with no ODOM line at all (a laser-only robot): read as such, said once, and
+// tracked from the scans alone (GraphSlam.ALaserOnlyRobotTracksFromTheScansAlone has the figures).
 TEST(SlamLogCli, ALogWithoutOdometryIsTrackedFromTheScans) {
   const std::string bin = MRSLAM_SLAM_LOG_BIN;
   const std::string dir = ::testing::TempDir();

@@ -69,9 +69,10 @@ class GraphSlam : public FrontEnd {
     Pose2D tracker_pose;  // in the tracker's frame
     double travel = 0;    // m along the trajectory
     Points2 points;       // returns in base_link, thinned
-    bool weak = false;    // a scan since the previous node (this one's included) was matched weakly
-    bool weak_before = false;  // ...one before this node's own scan was
+    bool weak_before = false;  // a scan between the previous node and this one was matched weakly
     bool own_weak = false;     // this node's own scan was: its pose alone may be off
+    // A scan since the previous node, this one's included, was matched weakly.
+    bool weak() const { return weak_before || own_weak; }
   };
   struct Closure {         // a loop closure: node `to` at `measurement` in the frame of `from`
     int from = 0, to = 0;
@@ -120,7 +121,7 @@ class GraphSlam : public FrontEnd {
   std::pair<double, double> weakMotionSlack(int a, int b) const;
   void expirePending();
   double loopLength() const;  // a closure's length in graphDistances
-  // Per node: next to a stretch the tracker matched weakly (Node::weak) and tied to the map by
+  // Per node: next to a stretch the tracker matched weakly (Node::weak()) and tied to the map by
   // no closure yet. Such a node may lie further off than any window grown with the graph
   // distance (the start of a run before the tracker matched anything: Intel every 5th, 44
   // degrees), so the reverse search looks for it in the loop_lone_window.

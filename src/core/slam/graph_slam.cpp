@@ -73,10 +73,10 @@ void GraphSlam::addTrackerEdges(int n) {
   // out of it is as unsure as the node (both weak, so a closure may move it alone), but the
   // tracker placed the next scan by the map, not by it: the motion across it keeps its weight.
   if (n >= 2 && nodes_[n - 1].own_weak)
-    edges_.push_back(odometryEdge(n - 2, n, nodes_[n - 2].own_weak || nodes_[n - 1].weak_before || nodes_[n].weak));
+    edges_.push_back(odometryEdge(n - 2, n, nodes_[n - 2].own_weak || nodes_[n - 1].weak_before || nodes_[n].weak()));
 }
 
-bool GraphSlam::weakEdge(int to) const { return nodes_[to].weak || nodes_[to - 1].own_weak; }
+bool GraphSlam::weakEdge(int to) const { return nodes_[to].weak() || nodes_[to - 1].own_weak; }
 
 bool GraphSlam::isNewNode(const Pose2D& tracker_pose) const {
   if (nodes_.empty()) return true;
@@ -120,7 +120,6 @@ void GraphSlam::addNode(const LaserScan& scan, const Pose2D& tracker_pose, bool 
   // The first node is the map's origin: nothing to match it against, nothing off.
   node.weak_before = n > 0 && weak_before;
   node.own_weak = n > 0 && own_weak;
-  node.weak = node.weak_before || node.own_weak;
   nodes_.push_back(std::move(node));
   addTrackerEdges(n);
   weak_since_node_ = false;
@@ -217,7 +216,7 @@ void GraphSlam::addClosures(const std::vector<std::pair<int, LoopClosure>>& foun
 std::vector<char> GraphSlam::loneNodes() const {
   std::vector<char> lone(nodes_.size(), 0);
   for (size_t k = 1; k < nodes_.size(); ++k)
-    if (nodes_[k].weak) lone[k - 1] = lone[k] = 1;
+    if (nodes_[k].weak()) lone[k - 1] = lone[k] = 1;
   for (const PoseGraphEdge& e : edges_)
     if (e.loop_closure) lone[static_cast<size_t>(e.from)] = lone[static_cast<size_t>(e.to)] = 0;
   return lone;
@@ -262,7 +261,7 @@ std::pair<double, double> GraphSlam::weakMotionSlack(int a, int b) const {
   for (int k = std::min(a, b) + 1; k <= std::max(a, b); ++k) {
     const PoseGraphEdge e = odometryEdge(k - 1, k, true);
     length += std::hypot(e.measurement.x, e.measurement.y);
-    if (!nodes_[k].weak) continue;
+    if (!nodes_[k].weak()) continue;
     var_xy += 1 / e.information(0, 0);
     var_yaw += 1 / e.information(2, 2);
   }

@@ -1,7 +1,7 @@
 // CARMEN text logs: ODOM lines and the front laser's scans, as FLASER (the old format),
 // ROBOTLASER1 (laser and robot pose with the scan) or RAWLASER1 (the scan alone) lines. A log
 // may hold the same scans in more than one of these: the first of FLASER, ROBOTLASER1,
-// RAWLASER1 that it has is read, and the others are counted in one warning.
+// RAWLASER1 that it has is read, and the others are counted in one note (RobotLog::notes).
 //
 // Odometry. In the corrected Radish logs the FLASER pose fields hold the reference (corrected)
 // pose, and right after every FLASER an ODOM line with ipc timestamp 0 repeats that pose: the
@@ -68,10 +68,8 @@ bool count(const std::string& token, size_t& n) {
 // the token count must agree with n, or every field after the ranges would be read shifted.
 std::string parseFlaser(const std::string& line, LaserScan& scan, Pose2D& reference, double range_max) {
   const std::vector<std::string> tokens = tokensOf(line);
-  double count = 0;
-  if (tokens.size() < 2 || !number(tokens[1], count) || count < 1 || count > 100000 || count != std::floor(count))
-    return "malformed FLASER line skipped (no beam count)";
-  const size_t n = static_cast<size_t>(count);
+  size_t n = 0;
+  if (tokens.size() < 2 || !count(tokens[1], n) || n < 1) return "malformed FLASER line skipped (no beam count)";
   const size_t fields = tokens.size() - 2;  // after "FLASER n"
   if (fields != n + 7 && fields != n + 9)
     return "malformed FLASER line skipped (" + std::to_string(n) + " beams announced, but " + std::to_string(fields) +
@@ -153,8 +151,7 @@ struct ScanStream {
   std::vector<LogRecord> records;
   Pose2D since_scan;     // odometry chained over finished segments since the last scan
   Pose2D segment_start;  // where the current segment stood at the last scan
-  bool have_laser_in_base = false;
-  Pose2D laser_in_base;
+  Pose2D laser_in_base;  // ROBOTLASER1: read off the first line
 
   // The odometry segment ended at `last` and a new one starts at `anchor` (a re-anchor).
   void reanchor(const Pose2D& last, const Pose2D& anchor) {
@@ -213,7 +210,7 @@ RobotLog readCarmenLog(const std::string& path) {
       record.has_reference = true;
       streams[kFlaser].add(std::move(record), have_odom, segment_last);
     } else if (line.rfind("ROBOTLASER1 ", 0) == 0 || line.rfind("RAWLASER1 ", 0) == 0) {
-      const Kind kind = line[1] == 'O' ? kRobotLaser : kRawLaser;
+      const Kind kind = line.rfind("ROBOTLASER1 ", 0) == 0 ? kRobotLaser : kRawLaser;
       RangeLine parsed;
       const std::string problem = parseRangeLine(line, kind == kRobotLaser, range_max, parsed);
       if (!problem.empty()) { warn(problem); continue; }
@@ -225,8 +222,7 @@ RobotLog readCarmenLog(const std::string& path) {
         // evaluation only, as FLASER's; the laser's mounting is read off the first line.
         record.has_reference = true;
         record.reference = parsed.robot_pose;
-        if (!stream.have_laser_in_base) stream.laser_in_base = parsed.robot_pose.inverse().compose(parsed.laser_pose);
-        stream.have_laser_in_base = true;
+        if (stream.records.empty()) stream.laser_in_base = parsed.robot_pose.inverse().compose(parsed.laser_pose);
       }
       stream.add(std::move(record), have_odom, segment_last);
     }
