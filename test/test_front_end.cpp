@@ -241,6 +241,64 @@ TEST(RobotLogs, RobotLaserAndRawLaserLinesAreReadWithTheirOwnBeamLayout) {
   EXPECT_NE(bad.warnings[1].find(":3: malformed RAWLASER1 line skipped (beam layout"), std::string::npos) << bad.warnings[1];
 }
 
+// The ODOM lines of a CARMEN log with their ipc timestamp (the 8th field) replaced: the first
+// after each scan line (the corrected logs' re-anchor) by `reanchor_stamp`, the others by
+// `reading_stamp` (empty: kept).
+std::string restampOdometry(const std::string& log, const std::string& reanchor_stamp, const std::string& reading_stamp) {
+  std::ifstream in(log);
+  std::ostringstream out;
+  bool after_scan = false;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("ODOM ", 0) == 0) {
+      std::istringstream fields(line);
+      std::vector<std::string> t{std::istream_iterator<std::string>(fields), std::istream_iterator<std::string>()};
+      const std::string& stamp = after_scan ? reanchor_stamp : reading_stamp;
+      if (!stamp.empty()) t[7] = stamp;
+      for (size_t k = 0; k < t.size(); ++k) out << (k ? " " : "") << t[k];
+      out << "\n";
+    } else {
+      out << line << "\n";
+    }
+    after_scan = line.rfind("FLASER ", 0) == 0 || (after_scan && line.rfind("ODOM ", 0) != 0);
+  }
+  return out.str();
+}
+
+// The corrected Radish logs re-anchor the odometry at every scan with an ODOM line repeating the
+// scan's pose. The four bundled logs give those lines ipc timestamp 0 and the readings a time,
+// but logs of other buildings do not: Orebro's re-anchors carry garbage times (6.979, 3.4e-86),
+// Freiburg campus writes 0 on every ODOM line. Read by the timestamp, Orebro's increments were
+// the reference's previous step and Freiburg campus had no motion at all (93 m global error);
+// a re-anchor is now the first ODOM line after a scan that repeats its pose.
+TEST(RobotLogs, AReanchorIsKnownByRepeatingTheScansPoseWhateverItsTimestamp) {
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(200);
+  const std::string dir = ::testing::TempDir();
+  writeCarmenLog(excerpt, dir + "/intel_200.log");
+  const RobotLog plain = readCarmenLog(dir + "/intel_200.log");
+  std::ofstream(dir + "/intel_200_timed_reanchors.log") << restampOdometry(dir + "/intel_200.log", "3.44361e-86", "");
+  std::ofstream(dir + "/intel_200_untimed.log") << restampOdometry(dir + "/intel_200.log", "0", "0");
+  const RobotLog timed = readCarmenLog(dir + "/intel_200_timed_reanchors.log");
+  const RobotLog untimed = readCarmenLog(dir + "/intel_200_untimed.log");
+  size_t moved = 0;
+  for (const RobotLog* log : {&timed, &untimed}) {
+    ASSERT_EQ(log->records.size(), plain.records.size());
+    for (size_t k = 0; k < plain.records.size(); ++k) {
+      EXPECT_NEAR(log->records[k].odometry.x, plain.records[k].odometry.x, 1e-9) << "scan " << k;
+      EXPECT_NEAR(log->records[k].odometry.y, plain.records[k].odometry.y, 1e-9) << "scan " << k;
+      EXPECT_NEAR(log->records[k].odometry.yaw, plain.records[k].odometry.yaw, 1e-9) << "scan " << k;
+    }
+  }
+  // The raw increments are the robot's own: not the reference's steps, and not zero.
+  for (size_t k = 1; k < plain.records.size(); ++k) {
+    const Pose2D step = plain.records[k - 1].reference.inverse().compose(plain.records[k].reference);
+    const Pose2D& u = plain.records[k].odometry;
+    moved += std::hypot(u.x, u.y) > 0.05;
+    EXPECT_FALSE(u.x == step.x && u.y == step.y) << "scan " << k;
+  }
+  EXPECT_GT(moved, 150u);
+}
+
 TEST(LaserScan, BadBeamsAreSkippedAndBadScansNamed) {
   LaserScan scan;
   scan.angle_min = -M_PI / 2;

@@ -4,14 +4,24 @@
 // RAWLASER1 that it has is read, and the others are counted in one note (RobotLog::notes).
 //
 // Odometry. In the corrected Radish logs the FLASER pose fields hold the reference (corrected)
-// pose, and right after every FLASER an ODOM line with ipc timestamp 0 repeats that pose: the
-// odometry is re-anchored at every scan and the ODOM lines that follow drift away from it as
-// raw wheel odometry does (see ../shared/data/SOURCES.md, verified on all four logs). So the
-// odometry increment between two scans is measured inside each anchored segment (segment
-// start to last ODOM reading) and chained across segments; in a raw log without re-anchoring
-// this is simply the increment between the ODOM readings around the two scans. The FLASER
-// pose and odometry fields are kept as reference only.
+// pose, and right after every FLASER an ODOM line repeats that pose: the odometry is
+// re-anchored at every scan and the ODOM lines that follow drift away from it as raw wheel
+// odometry does (see ../shared/data/SOURCES.md, verified on all four logs). So the odometry
+// increment between two scans is measured inside each anchored segment (segment start to last
+// ODOM reading) and chained across segments; in a raw log without re-anchoring this is simply
+// the increment between the ODOM readings around the two scans. The FLASER pose and odometry
+// fields are kept as reference only.
+// A re-anchor is the first ODOM line after a scan line, known by repeating that scan's pose,
+// not by its ipc timestamp 0: the four logs above give every re-anchor timestamp 0, but Radish
+// logs of other buildings give many re-anchors a timestamp (Orebro all of them, as garbage such
+// as 3.4e-86) or every ODOM line timestamp 0 (Freiburg campus). Taking a re-anchor for a reading
+// makes the jump from the drifted odometry to the reference pose a motion, the next scan's
+// increment the reference's previous step; taking every reading for a re-anchor leaves no
+// motion at all. In a raw log an ODOM line equal to the scan's pose is the same reading, where
+// a re-anchor changes nothing. A RAWLASER1 line has no pose to repeat: after it, timestamp 0
+// marks the re-anchor.
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 #include <vector>
@@ -22,6 +32,12 @@
 namespace mrslam::slam {
 
 namespace {
+
+// Equal as printed: a re-anchor's ODOM line and its scan line write the pose alike.
+bool samePose(const Pose2D& a, const Pose2D& b) {
+  auto same = [](double u, double v) { return std::abs(u - v) <= 1e-6 * std::max(1.0, std::abs(u)); };
+  return same(a.x, b.x) && same(a.y, b.y) && same(a.yaw, b.yaw);
+}
 
 bool parseOdom(const std::string& line, Pose2D& pose, double& stamp) {
   std::istringstream in(line.substr(5));
@@ -180,6 +196,10 @@ RobotLog readCarmenLog(const std::string& path) {
   ScanStream streams[kKinds];
   Pose2D segment_last;  // the newest ODOM reading
   bool have_odom = false;
+  // Since the last scan line no ODOM line was read; its pose fields, if it had them (a re-anchor
+  // repeats them).
+  bool after_scan = false, scan_has_pose = false;
+  Pose2D scan_pose;
   // SICK LMS logs write no return as 81.91 m (the PARAM line says 80.99), some as 50 m.
   double range_max = 50.0;
   std::string line;
@@ -197,10 +217,11 @@ RobotLog readCarmenLog(const std::string& path) {
       if (!have_odom) {
         for (ScanStream& s : streams) s.startAt(pose);
         have_odom = true;
-      } else if (stamp == 0.0) {  // re-anchored: close the segment, start a new one here
-        for (ScanStream& s : streams) s.reanchor(segment_last, pose);
+      } else if (after_scan && (scan_has_pose ? samePose(pose, scan_pose) : stamp == 0.0)) {
+        for (ScanStream& s : streams) s.reanchor(segment_last, pose);  // close the segment, start one here
       }
       segment_last = pose;
+      after_scan = false;
     } else if (line.rfind("FLASER ", 0) == 0) {
       LogRecord record;
       const std::string problem = parseFlaser(line, record.scan, record.reference, range_max);
@@ -208,6 +229,8 @@ RobotLog readCarmenLog(const std::string& path) {
       // Time stamps are kept as they are, even going backwards: checkTimeStamps() judges them
       // and a run falls back to the order of the lines rather than dropping scans.
       record.has_reference = true;
+      scan_pose = record.reference;
+      after_scan = scan_has_pose = true;
       streams[kFlaser].add(std::move(record), have_odom, segment_last);
     } else if (line.rfind("ROBOTLASER1 ", 0) == 0 || line.rfind("RAWLASER1 ", 0) == 0) {
       const Kind kind = line.rfind("ROBOTLASER1 ", 0) == 0 ? kRobotLaser : kRawLaser;
@@ -223,7 +246,10 @@ RobotLog readCarmenLog(const std::string& path) {
         record.has_reference = true;
         record.reference = parsed.robot_pose;
         if (stream.records.empty()) stream.laser_in_base = parsed.robot_pose.inverse().compose(parsed.laser_pose);
+        scan_pose = parsed.robot_pose;
       }
+      after_scan = true;
+      scan_has_pose = kind == kRobotLaser;
       stream.add(std::move(record), have_odom, segment_last);
     }
   }
