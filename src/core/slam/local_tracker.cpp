@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace mrslam::slam {
@@ -56,6 +57,7 @@ constexpr size_t kStrideHistory = 50;
 constexpr size_t kStrideWarmUp = 5;
 constexpr double kStrideQuantile = 0.75;
 constexpr double kMovingStride = 0.05;  // m
+constexpr double kStoodStill = 0.1;     // m: an increment shorter than this says the robot stood
 
 double LocalTracker::typicalStride() const {
   if (strides_.empty()) return 0.0;
@@ -214,17 +216,25 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const Eigen::Matrix3d& P = ekf_.covariance();
     const double sigma_xy = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(P.topLeftCorner<2, 2>()).eigenvalues().maxCoeff());
     const double sigma_yaw = std::sqrt(P(2, 2));
-    if (sp.enabled && (step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
-      const double xy = step.odometry_doubted ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
+    // Odometry that says the robot stood still while the scan hardly fits the local map where
+    // it stood has missed a motion (Seattle: 0 where the scan turned 80 degrees on the spot):
+    // the scan is searched for at every heading. A robot that drove may have reached new
+    // ground, where a low fit says nothing (slow scanners: every 3rd to 5th scan broke).
+    const bool stood = odometry_available_ && scans_ > 0 && !step.imu_used &&
+                       std::hypot(u.x, u.y) < kStoodStill && std::abs(u.yaw) < sp.max_yaw;
+    const bool lost = sp.enabled && sp.lost_below_score > 0 && stood &&
+                      seedGrid().score(transformPoints(points, guess)) < sp.lost_below_score;
+    if (sp.enabled && (lost || step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
+      const double xy = step.odometry_doubted || lost ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
       // Wheels slip while turning more than the motion model says; a gyro does not. Without
       // one, where the scan fits the local map poorly at the prediction (as it does after a
       // turn the odometry missed), the window is never narrower than min_yaw.
       step.prediction = guess;
       step.prediction_score = seedGrid().score(transformPoints(points, guess));
       const double min_yaw = step.imu_used || step.prediction_score >= sp.min_yaw_below_score ? 0.0 : sp.min_yaw;
-      const double yaw = step.odometry_doubted
-                             ? sp.max_yaw
-                             : std::max(min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
+      const double yaw = lost ? M_PI
+                         : step.odometry_doubted ? sp.max_yaw
+                                                 : std::max(min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
       // A reversed increment is the scan's guess, not odometry's measurement: its length earns
       // no tighter prior.
       const SeedPrior prior = !odometry_available_ ? noOdometryPrior()

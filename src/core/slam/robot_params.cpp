@@ -54,6 +54,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"seed_max_yaw", &seed.max_yaw},
       {"seed_min_yaw", &seed.min_yaw},
       {"seed_min_yaw_below_score", &seed.min_yaw_below_score},
+      {"seed_lost_below_score", &seed.lost_below_score},
       {"seed_min_score", &seed.min_score},
       {"seed_penalty_gain", &seed.penalty_gain},
       {"seed_min_penalty", &seed.min_penalty},
