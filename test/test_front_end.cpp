@@ -182,13 +182,19 @@ std::string rewriteScans(const std::string& flaser_log, const std::string& kind,
   return out.str();
 }
 
-// Newer CARMEN logs (and the MIT/Freiburg benchmark logs) write their scans as ROBOTLASER1 or
-// RAWLASER1 lines, with the beam layout, maximum range and laser mounting in every line.
-TEST(RobotLogs, RobotLaserAndRawLaserLinesAreReadWithTheirOwnBeamLayout) {
+// The first 200 Intel scans written as a CARMEN log, intel_200.log, in the directory returned.
+std::string writeIntel200() {
   RobotLog excerpt = intelLog();
   excerpt.records.resize(200);
   const std::string dir = ::testing::TempDir();
   writeCarmenLog(excerpt, dir + "/intel_200.log");
+  return dir;
+}
+
+// Newer CARMEN logs (and the MIT/Freiburg benchmark logs) write their scans as ROBOTLASER1 or
+// RAWLASER1 lines, with the beam layout, maximum range and laser mounting in every line.
+TEST(RobotLogs, RobotLaserAndRawLaserLinesAreReadWithTheirOwnBeamLayout) {
+  const std::string dir = writeIntel200();
   const RobotLog flaser = readCarmenLog(dir + "/intel_200.log");
   const Pose2D mount{0.12, 0.03, 0.05};
   std::ofstream(dir + "/intel_200_robotlaser.log") << rewriteScans(dir + "/intel_200.log", "ROBOTLASER1", mount);
@@ -271,10 +277,7 @@ std::string restampOdometry(const std::string& log, const std::string& reanchor_
 // the reference's previous step and Freiburg campus had no motion at all (93 m global error);
 // a re-anchor is now the first ODOM line after a scan that repeats its pose.
 TEST(RobotLogs, AReanchorIsKnownByRepeatingTheScansPoseWhateverItsTimestamp) {
-  RobotLog excerpt = intelLog();
-  excerpt.records.resize(200);
-  const std::string dir = ::testing::TempDir();
-  writeCarmenLog(excerpt, dir + "/intel_200.log");
+  const std::string dir = writeIntel200();
   const RobotLog plain = readCarmenLog(dir + "/intel_200.log");
   std::ofstream(dir + "/intel_200_timed_reanchors.log") << restampOdometry(dir + "/intel_200.log", "3.44361e-86", "");
   std::ofstream(dir + "/intel_200_untimed.log") << restampOdometry(dir + "/intel_200.log", "0", "0");

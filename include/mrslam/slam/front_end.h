@@ -36,9 +36,10 @@ struct SeedParams {
   double min_yaw_below_score = 0.6;  // where the scan fits the local map less than this at the
                                  // prediction: wheels slip most while turning on the spot, where a
                                  // confident prediction can be 9 degrees off in one scan
-  double lost_below_score = 0.2; // without a gyro, where the scan fits the local map less than
-                                 // this at the prediction, the search spans max_xy and every
-                                 // heading: odometry that missed a turn altogether (0: never)
+  double lost_below_score = 0.2; // without a gyro, where odometry says the robot stood (under
+                                 // 0.1 m) and the scan fits the local map less than this there,
+                                 // the search spans max_xy and every heading: the odometry
+                                 // missed a motion altogether (0: never)
   double min_score = 0.1;        // a seed scoring less is not used (ICP starts from the prediction)
   double penalty_gain = 0.05;    // prior around the prediction: a pose k prior sigmas away
   double min_penalty = 0.7;      // scores x max(min_penalty, 1 - gain k^2), so where the scan

@@ -222,15 +222,17 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     // ground, where a low fit says nothing (slow scanners: every 3rd to 5th scan broke).
     const bool stood = odometry_available_ && scans_ > 0 && !step.imu_used &&
                        std::hypot(u.x, u.y) < kStoodStill && std::abs(u.yaw) < sp.max_yaw;
-    const bool lost = sp.enabled && sp.lost_below_score > 0 && stood &&
-                      seedGrid().score(transformPoints(points, guess)) < sp.lost_below_score;
-    if (sp.enabled && (lost || step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw)) {
+    const bool uncertain = step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw;
+    const bool check_lost = stood && sp.lost_below_score > 0;
+    const double fit = sp.enabled && (uncertain || check_lost) ? seedGrid().score(transformPoints(points, guess)) : 0.0;
+    const bool lost = sp.enabled && check_lost && fit < sp.lost_below_score;
+    if (sp.enabled && (uncertain || lost)) {
       const double xy = step.odometry_doubted || lost ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
       // Wheels slip while turning more than the motion model says; a gyro does not. Without
       // one, where the scan fits the local map poorly at the prediction (as it does after a
       // turn the odometry missed), the window is never narrower than min_yaw.
       step.prediction = guess;
-      step.prediction_score = seedGrid().score(transformPoints(points, guess));
+      step.prediction_score = fit;
       const double min_yaw = step.imu_used || step.prediction_score >= sp.min_yaw_below_score ? 0.0 : sp.min_yaw;
       const double yaw = lost ? M_PI
                          : step.odometry_doubted ? sp.max_yaw
