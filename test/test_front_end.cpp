@@ -273,7 +273,7 @@ std::string restampOdometry(const std::string& log, const std::string& reanchor_
 // The corrected Radish logs re-anchor the odometry at every scan with an ODOM line repeating the
 // scan's pose. The four bundled logs give those lines ipc timestamp 0 and the readings a time,
 // but logs of other buildings do not: Orebro's re-anchors carry garbage times (6.979, 3.4e-86),
-// Freiburg campus writes 0 on every ODOM line. Read by the timestamp, Orebro's increments were
+// Freiburg campus gives 0 to every reading. Read by the timestamp, Orebro's increments were
 // the reference's previous step and Freiburg campus had no motion at all (93 m global error);
 // a re-anchor is now the first ODOM line after a scan that repeats its pose.
 TEST(RobotLogs, AReanchorIsKnownByRepeatingTheScansPoseWhateverItsTimestamp) {

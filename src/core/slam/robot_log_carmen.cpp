@@ -14,7 +14,7 @@
 // A re-anchor is the first ODOM line after a scan line, known by repeating that scan's pose,
 // not by its ipc timestamp 0: the four logs above give every re-anchor timestamp 0, but Radish
 // logs of other buildings give many re-anchors a timestamp (Orebro all of them, as garbage such
-// as 3.4e-86) or every ODOM line timestamp 0 (Freiburg campus). Taking a re-anchor for a reading
+// as 3.4e-86) or every reading timestamp 0 (Freiburg campus). Taking a re-anchor for a reading
 // makes the jump from the drifted odometry to the reference pose a motion, the next scan's
 // increment the reference's previous step; taking every reading for a re-anchor leaves no
 // motion at all. In a raw log an ODOM line equal to the scan's pose is the same reading, where
