@@ -6,8 +6,9 @@
 // for NaN), imu (sensor_msgs/Imu, optional). Publishes: tf map_frame -> odom_frame (REP-105:
 // map -> base is the estimated pose; with use_odometry false, a laser-only robot or bag, there
 // is no odometry frame and it publishes map_frame -> base_frame itself), pose
-// (geometry_msgs/PoseWithCovarianceStamped), odometry/filtered (nav_msgs/Odometry in map_frame), trajectory (nav_msgs/Path, latched: the
-// current estimate of every scan's pose, which moves when a loop closes), map
+// (geometry_msgs/PoseWithCovarianceStamped), odometry/filtered (nav_msgs/Odometry in
+// map_frame), trajectory (nav_msgs/Path, latched: the current estimate of every scan's pose,
+// which moves when a loop closes), map
 // (nav_msgs/OccupancyGrid, latched, at most map_publish_rate Hz and only when its content
 // changed) and map_metadata, diagnostics.
 //

@@ -37,7 +37,7 @@ struct SeedParams {
                                  // prediction: wheels slip most while turning on the spot, where a
                                  // confident prediction can be 9 degrees off in one scan
   double lost_below_score = 0.2; // without a gyro, where odometry says the robot stood (under
-                                 // 0.1 m) and the scan fits the local map less than this there,
+                                 // 0.1 m, turning less than max_yaw) and the scan fits the local map less than this there,
                                  // the search spans max_xy and every heading: the odometry
                                  // missed a motion altogether (0: never)
   double min_score = 0.1;        // a seed scoring less is not used (ICP starts from the prediction)

@@ -3,17 +3,18 @@
 // The paper's cascaded EKF stays the local tracker; its poses are the odometry of a graph whose
 // nodes are key scans (every node_distance / node_angle). Consecutive nodes are joined by the
 // tracker's motion, weak (weak_edge_factor) where a scan was matched poorly: into and out of a
-// node whose own scan was, with the motion across that node kept at full weight; every new node is searched against older finished submaps (loop_closer.h),
-// and every submap when it is finished against the older nodes among its poses (as Cartographer
-// matches nodes and submaps both ways: a stretch the tracker drew badly before the robot came
-// back is only found from the return's submap); each closure found becomes an edge with a
-// robust loss. The graph is optimised (Ceres by
-// default) whenever closures are added; a closure whose error at the optimum exceeds
-// loop_outlier_chi2 is dropped and the graph optimised again, so one wrong closure cannot wreck
-// the map. A closure that would move the graph further than loop_confirm_xy / _yaw from what
-// it believes is held until a second closure agrees with it (pairwise consistency through the
-// tracker's motion between the two nodes, the second from a node at least
-// loop_consistency_min_travel further along) and dropped if none does within loop_confirm_travel.
+// node whose own scan was, with the motion across that node kept at full weight. Every new node
+// is searched against older finished submaps (loop_closer.h), and every submap when it is
+// finished against the older nodes among its poses (as Cartographer matches nodes and submaps
+// both ways: a stretch the tracker drew badly before the robot came back is only found from the
+// return's submap); each closure found becomes an edge with a robust loss. The graph is
+// optimised (Ceres by default) whenever closures are added; a closure whose error at the
+// optimum exceeds loop_outlier_chi2 is dropped and the graph optimised again, so one wrong
+// closure cannot wreck the map. A closure that would move the graph further than
+// loop_confirm_xy / _yaw from what it believes is held until a second closure agrees with it
+// (pairwise consistency through the tracker's motion between the two nodes, the second from a
+// node at least loop_consistency_min_travel further along) and dropped if none does within
+// loop_confirm_travel.
 // A failed optimisation keeps the last good poses and says why (stats().last_problem).
 //
 // The map: scans go into submaps (submap.h) in their anchor node's frame; the map is the

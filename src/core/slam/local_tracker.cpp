@@ -219,7 +219,8 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     // Odometry that says the robot stood still while the scan hardly fits the local map where
     // it stood has missed a motion (Seattle: 0 where the scan turned 80 degrees on the spot):
     // the scan is searched for at every heading. A robot that drove may have reached new
-    // ground, where a low fit says nothing (slow scanners: every 3rd to 5th scan broke).
+    // ground, where a low fit says nothing (slow scanners: every 3rd to 5th scan broke), and one
+    // whose odometry turned past the seed's own window has not missed its motion.
     const bool stood = odometry_available_ && scans_ > 0 && !step.imu_used &&
                        std::hypot(u.x, u.y) < kStoodStill && std::abs(u.yaw) < sp.max_yaw;
     const bool uncertain = step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw;
