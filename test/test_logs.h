@@ -16,6 +16,11 @@ inline const slam::RobotLog& freiburg079Log() {
   return log;
 }
 
+inline const slam::RobotLog& freiburg101Log() {
+  static const slam::RobotLog log = slam::readRobotLog(dataPath("logs/carmen_corrected/freiburg-101-corrected.log.gz"));
+  return log;
+}
+
 inline const slam::RobotLog& acesLog() {
   static const slam::RobotLog log = slam::readRobotLog(dataPath("logs/carmen_corrected/aces-corrected.log.gz"));
   return log;

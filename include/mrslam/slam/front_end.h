@@ -169,8 +169,13 @@ struct RobotSlamParams {
   double odometry_stride_factor = 3.0;
   // Without odometry (a laser-only robot or log) each scan is predicted to move as the last one
   // did, this uncertain either way per scan: the correlative search then finds the motion.
-  double no_odometry_sigma_xy = 0.3;   // m
-  double no_odometry_sigma_yaw = 0.3;  // rad
+  double no_odometry_sigma_xy = 0.6;   // m
+  double no_odometry_sigma_yaw = 0.6;  // rad
+  // ...and the correlative search spans at most this much (where odometry caps it at the seed's
+  // max_xy / max_yaw): without odometry nothing bounds a motion but the scan rate, and the 1 m /
+  // 30 degrees that catch odometry's errors miss a robot that starts to drive or turns on the spot.
+  double no_odometry_max_xy = 2.0;   // m
+  double no_odometry_max_yaw = 1.6;  // rad
 };
 
 // A piece of the robot's map and where it sits in the map frame. Pieces are never modified once

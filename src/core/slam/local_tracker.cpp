@@ -228,7 +228,9 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const double fit = sp.enabled && (uncertain || check_lost) ? seedGrid().score(transformPoints(points, guess)) : 0.0;
     const bool lost = sp.enabled && check_lost && fit < sp.lost_below_score;
     if (sp.enabled && (uncertain || lost)) {
-      const double xy = step.odometry_doubted || lost ? sp.max_xy : std::min(sp.max_xy, sp.window_sigmas * sigma_xy);
+      const double max_xy = odometry_available_ ? sp.max_xy : params_.no_odometry_max_xy;
+      const double max_yaw = odometry_available_ ? sp.max_yaw : params_.no_odometry_max_yaw;
+      const double xy = step.odometry_doubted || lost ? max_xy : std::min(max_xy, sp.window_sigmas * sigma_xy);
       // Wheels slip while turning more than the motion model says; a gyro does not. Without
       // one, where the scan fits the local map poorly at the prediction (as it does after a
       // turn the odometry missed), the window is never narrower than min_yaw.
@@ -236,8 +238,8 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       step.prediction_score = fit;
       const double min_yaw = step.imu_used || step.prediction_score >= sp.min_yaw_below_score ? 0.0 : sp.min_yaw;
       const double yaw = lost ? M_PI
-                         : step.odometry_doubted ? sp.max_yaw
-                                                 : std::max(min_yaw, std::min(sp.max_yaw, sp.window_sigmas * sigma_yaw));
+                         : step.odometry_doubted ? max_yaw
+                                                 : std::max(min_yaw, std::min(max_yaw, sp.window_sigmas * sigma_yaw));
       // A reversed increment is the scan's guess, not odometry's measurement: its length earns
       // no tighter prior.
       const SeedPrior prior = !odometry_available_ ? noOdometryPrior()

@@ -24,6 +24,8 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"odometry_stride_factor", &p.odometry_stride_factor},
       {"no_odometry_sigma_xy", &p.no_odometry_sigma_xy},
       {"no_odometry_sigma_yaw", &p.no_odometry_sigma_yaw},
+      {"no_odometry_max_xy", &p.no_odometry_max_xy},
+      {"no_odometry_max_yaw", &p.no_odometry_max_yaw},
       {"use_scan_matching", &p.use_scan_matching},
       {"use_imu", &p.use_imu},
       {"icp_keyframes", &s.keyframes},
