@@ -726,6 +726,11 @@ TEST(SlamLogCli, ALogWithoutOdometryIsTrackedFromTheScans) {
   }
   EXPECT_TRUE(readRobotLog(with_odometry).has_odometry);
   ASSERT_FALSE(readRobotLog(laser_only).has_odometry);
+  // Written again (mrslam_convert_log --from / --every), it stays laser-only: ODOM lines of zero
+  // motion would say the robot stood at every scan, and it would be tracked as one that did.
+  const std::string rewritten = dir + "/fr079_300_laser_only_every2.log";
+  writeCarmenLog(decimate(fromScan(readRobotLog(laser_only), 1), 2, 0), rewritten);
+  EXPECT_FALSE(readRobotLog(rewritten).has_odometry);
   const auto run = test::runCommand(bin + " " + laser_only + " --trajectory " + dir + "/laser_only.txt");
   ASSERT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("no odometry in the log"), std::string::npos) << run.output;

@@ -58,7 +58,8 @@ void writeCarmenLog(const RobotLog& log, const std::string& path) {
     const LogRecord& r = log.records[k];
     const double t = r.scan.stamp;
     const double odom_t = t != 0.0 ? t : 1e-6;  // an ODOM time stamp of 0 marks a re-anchor
-    if (k > 0) {  // the odometry since the previous scan, relative to its anchor line
+    // A laser-only log stays one: zero-motion ODOM lines would say the robot stood at every scan.
+    if (k > 0 && log.has_odometry) {  // the odometry since the previous scan, relative to its anchor line
       const Pose2D reached = anchor.compose(r.odometry);
       std::fprintf(f, "ODOM %.6f %.6f %.6f 0 0 0 %.6f nohost %.6f\n", reached.x, reached.y, reached.yaw, odom_t, t);
     }
@@ -67,7 +68,7 @@ void writeCarmenLog(const RobotLog& log, const std::string& path) {
     for (float range : r.scan.ranges) std::fprintf(f, " %.3f", std::isfinite(range) ? range : r.scan.range_max);
     std::fprintf(f, " %.6f %.6f %.6f %.6f %.6f %.6f %.6f nohost %.6f\n", p.x, p.y, p.yaw, p.x, p.y, p.yaw, t, t);
     anchor = p;
-    std::fprintf(f, "ODOM %.6f %.6f %.6f 0 0 0 0 nohost %.6f\n", anchor.x, anchor.y, anchor.yaw, t);
+    if (log.has_odometry) std::fprintf(f, "ODOM %.6f %.6f %.6f 0 0 0 0 nohost %.6f\n", anchor.x, anchor.y, anchor.yaw, t);
   }
   if (std::ferror(f) || std::fflush(f) != 0) throw LogError(path + ": write failed");
   if (std::fclose(file.release()) != 0) throw LogError(path + ": write failed");
