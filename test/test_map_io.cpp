@@ -125,6 +125,15 @@ TEST(MapIo, BadFilesGiveErrorsNamingTheFile) {
   writeText(dir / "long_name.yaml", "image: " + std::string(5000, 'x') + ".pgm\nresolution: 0.05\n" + tail);
   EXPECT_NE(loadError(dir / "long_name.yaml").find("cannot be looked up"), std::string::npos);
   EXPECT_NE(loadError(dir / std::string(5000, 'y')).find("cannot be looked up"), std::string::npos);
+  // A bitmap (P4) taller than OpenCV reads: OpenCV threw and aborted the loader (found by
+  // fuzz_map_loader). Its header is checked like a PGM's, and what OpenCV still refuses (a
+  // full-size file 5 x 1 100 000) is refused by name, never thrown through.
+  writeText(dir / "tall.pbm", "P4\n5 4000000\n" + std::string(16, '\0'));
+  writeText(dir / "tall.yaml", "image: tall.pbm\nresolution: 0.05\n" + tail);
+  EXPECT_NE(loadError(dir / "tall.yaml").find("tall.pbm: image data truncated"), std::string::npos);
+  writeText(dir / "tall_full.pbm", "P4\n5 1100000\n" + std::string(1100000, '\0'));
+  writeText(dir / "tall_full.yaml", "image: tall_full.pbm\nresolution: 0.05\n" + tail);
+  EXPECT_NE(loadError(dir / "tall_full.yaml").find("tall_full.pbm: unreadable image: OpenCV refuses it"), std::string::npos);
 }
 
 TEST(Grid, ValidateRejectsMalformedGrids) {

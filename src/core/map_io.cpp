@@ -56,22 +56,24 @@ void checkPnmHeader(const std::string& path, const std::string& yaml_path) {
   std::ifstream in(path, std::ios::binary);
   char magic[2] = {0, 0};
   in.read(magic, 2);
-  if (magic[0] != 'P' || (magic[1] != '2' && magic[1] != '5' && magic[1] != '6')) return;
-  long values[3];
-  for (long& v : values) {
+  if (magic[0] != 'P' || magic[1] < '1' || magic[1] > '6') return;
+  // P1 / P4 (bitmaps) have no maxval; OpenCV reads every one of the six.
+  const bool bitmap = magic[1] == '1' || magic[1] == '4', ascii = magic[1] <= '3';
+  long values[3] = {0, 0, 1};
+  for (int k = 0; k < (bitmap ? 2 : 3); ++k) {
     in >> std::ws;
     while (in.peek() == '#') in.ignore(1 << 20, '\n'), in >> std::ws;
-    if (!(in >> v) || v <= 0) fail(path, "malformed PGM header (image of " + yaml_path + ")");
+    if (!(in >> values[k]) || values[k] <= 0) fail(path, "malformed PNM header (image of " + yaml_path + ")");
   }
   if (values[2] > 65535) fail(path, "malformed PGM header: maxval " + std::to_string(values[2]) + " (image of " + yaml_path + ")");
   // Compared by division, so that no product of header values can overflow.
   if (values[0] > kMaxImageCells || values[1] > kMaxImageCells / values[0])
     fail(path, "image header claims " + std::to_string(values[0]) + " x " + std::to_string(values[1]) +
                    " cells, beyond the limit of " + std::to_string(kMaxImageCells) + " (image of " + yaml_path + ")");
-  if (magic[1] == '2') return;  // ASCII: OpenCV reports a short one itself
-  in.get();  // the single whitespace after maxval
-  const long long expected = static_cast<long long>(values[0]) * values[1] * (magic[1] == '6' ? 3 : 1) *
-                             (values[2] > 255 ? 2 : 1);
+  if (ascii) return;  // OpenCV reports a short one itself
+  in.get();  // the single whitespace after the last header value
+  const long long row_bytes = bitmap ? (values[0] + 7) / 8 : static_cast<long long>(values[0]) * (magic[1] == '6' ? 3 : 1);
+  const long long expected = row_bytes * values[1] * (values[2] > 255 ? 2 : 1);
   const long long header = in.tellg();
   std::error_code ec;
   const long long size = static_cast<long long>(fs::file_size(path, ec));
@@ -172,7 +174,14 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
   requireFile(image_path, "image named in " + yaml_path + " not found", "not a file (image of " + yaml_path + ")");
   checkPnmHeader(image_path.string(), yaml_path);
   checkPngStructure(image_path.string(), yaml_path);
-  cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_UNCHANGED);
+  // OpenCV throws for what its decoders refuse outright (an image taller or wider than 2^20
+  // pixels, found by fuzz_map_loader: it aborted the loader): refused by name like the rest.
+  cv::Mat image;
+  try {
+    image = cv::imread(image_path.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    fail(image_path.string(), "unreadable image: OpenCV refuses it (" + e.err + ") (image of " + yaml_path + ")");
+  }
   if (image.empty()) fail(image_path.string(), "unreadable image (image of " + yaml_path + ")");
   if (image.depth() != CV_8U) fail(image_path.string(), "only 8-bit images are supported");
 
