@@ -542,9 +542,7 @@ TEST(GraphSlam, ALaserOnlyRobotTracksFromTheScansAlone) {
 // reach, and the whole log came out 20.9 m off laser-only (0.12 m with odometry).
 TEST(GraphSlam, ALaserOnlyRobotThatStopsTurnsAndDrivesOffIsFoundInAWindowOfItsOwn) {
   for (const size_t start : {0u, 2u}) {
-    RobotLog log = freiburg101Log();
-    log.records.erase(log.records.begin(), log.records.begin() + start);
-    const LaserOnlyRun run = runWithAndWithoutOdometry(log);
+    const LaserOnlyRun run = runWithAndWithoutOdometry(fromScan(freiburg101Log(), start));
     std::printf("Freiburg 101 from scan %zu: with odometry %.2f m, laser only %.2f m\n", start, run.with_odometry,
                 run.laser_only);
     EXPECT_LT(run.laser_only, run.with_odometry + 0.05) << "started " << start << " scans in";
