@@ -295,7 +295,7 @@ TEST(GraphSlam, TheLoopClosersSearchGridsStayWithinTheirBudget) {
   };
   size_t roomy_peak = 0, tight_peak = 0;
   const std::vector<Pose2D> roomy = run(1000, roomy_peak);
-  const double tight_mb = 5;
+  const double tight_mb = 4;
   const std::vector<Pose2D> tight = run(tight_mb, tight_peak);
   std::printf("Intel every 3rd: search grids peak %.1f MB unbounded, %.1f MB within %.0f MB\n", roomy_peak / 1048576.0,
               tight_peak / 1048576.0, tight_mb);

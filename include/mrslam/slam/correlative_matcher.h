@@ -8,6 +8,7 @@
 // or scans are far apart, and to find loop closures against older parts of the map.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -52,6 +53,9 @@ class CorrelativeMatcher {
  public:
   // Precomputes `levels` max-pooled copies of the grid (level h pools 2^h x 2^h cells).
   CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> grid, int levels = 6);
+  // Not copyable: the levels point into the grid and into their own buffers.
+  CorrelativeMatcher(const CorrelativeMatcher&) = delete;
+  CorrelativeMatcher& operator=(const CorrelativeMatcher&) = delete;
 
   // The best pose in the window for `points` (in the scan frame); not found when no pose
   // scores min_score. With `excluded`, poses within `exclude_xy` m and `exclude_yaw` rad of it
@@ -67,13 +71,13 @@ class CorrelativeMatcher {
   struct Level {
     int offset = 0;  // cell (0, 0) of this level is cell (-offset, -offset) of the grid
     int width = 0, height = 0;
-    std::vector<uint8_t> values;
-    int at(int cx, int cy) const {
-      cx += offset, cy += offset;
-      return (cx < 0 || cy < 0 || cx >= width || cy >= height) ? 0 : values[static_cast<size_t>(cy) * width + cx];
-    }
+    std::vector<uint8_t> pooled;     // levels above 0; level 0 reads the grid's own cells...
+    const uint8_t* values = nullptr;  // ...through this (no copy of the largest array)
   };
   struct Candidate;
+  struct Rotated;
+  // Sum of the level's cells under `cells` shifted by (dx, dy); cells outside count 0.
+  static int64_t sumAt(const Level& level, const Rotated& rotated, int dx, int dy);
 
   std::shared_ptr<const LikelihoodGrid> grid_;
   std::vector<Level> levels_;

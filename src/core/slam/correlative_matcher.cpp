@@ -32,6 +32,30 @@ struct CorrelativeMatcher::Candidate {
   float score = 0;
 };
 
+// The scan at one angle, as grid cells, and the box they span.
+struct CorrelativeMatcher::Rotated {
+  std::vector<std::pair<int, int>> cells;
+  int min_x = 0, max_x = -1, min_y = 0, max_y = -1;
+};
+
+int64_t CorrelativeMatcher::sumAt(const Level& level, const Rotated& rotated, int dx, int dy) {
+  const int ox = dx + level.offset, oy = dy + level.offset;
+  const int64_t width = level.width;
+  int64_t sum = 0;
+  // Most candidates lie wholly inside the level: those skip the per-point bounds test (the
+  // searches are most of a run's time; same sums either way).
+  if (rotated.min_x + ox >= 0 && rotated.min_y + oy >= 0 && rotated.max_x + ox < level.width &&
+      rotated.max_y + oy < level.height) {
+    for (const auto& [cx, cy] : rotated.cells) sum += level.values[(cy + oy) * width + (cx + ox)];
+    return sum;
+  }
+  for (const auto& [cx, cy] : rotated.cells) {
+    const int x = cx + ox, y = cy + oy;
+    if (x >= 0 && y >= 0 && x < level.width && y < level.height) sum += level.values[y * width + x];
+  }
+  return sum;
+}
+
 namespace {
 
 // out[i] = max(in[i - step], in[i]) for i in [0, n + step), where in[] is n long and reads
@@ -48,7 +72,7 @@ void pairMax(const uint8_t* in, int n, int step, uint8_t* out) {
 
 size_t CorrelativeMatcher::bytes() const {
   size_t total = grid_->values().size();
-  for (const Level& level : levels_) total += level.values.size();
+  for (const Level& level : levels_) total += level.pooled.size();
   return total;
 }
 
@@ -56,7 +80,7 @@ CorrelativeMatcher::CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> gri
   Level base;
   base.width = grid_->width();
   base.height = grid_->height();
-  base.values = grid_->values();
+  base.values = grid_->values().data();
   levels_.push_back(std::move(base));
   // Level h holds, at (x, y), the max of level 0 over [x, x + 2^h) x [y, y + 2^h); it also
   // covers x, y down to -(2^h - 1), where a window still reaches into the grid. It is level
@@ -71,9 +95,10 @@ CorrelativeMatcher::CorrelativeMatcher(std::shared_ptr<const LikelihoodGrid> gri
     std::vector<uint8_t> rows(static_cast<size_t>(next.width) * prev.height);
     for (int y = 0; y < prev.height; ++y)
       pairMax(&prev.values[static_cast<size_t>(y) * prev.width], prev.width, step, &rows[static_cast<size_t>(y) * next.width]);
-    next.values.assign(static_cast<size_t>(next.width) * next.height, 0);
+    next.pooled.assign(static_cast<size_t>(next.width) * next.height, 0);
+    next.values = next.pooled.data();
     for (int y = 0; y < next.height; ++y) {  // row y: rows y - step and y of the row pass
-      uint8_t* out = &next.values[static_cast<size_t>(y) * next.width];
+      uint8_t* out = &next.pooled[static_cast<size_t>(y) * next.width];
       for (const int r : {y - step, y}) {
         if (r < 0 || r >= prev.height) continue;
         const uint8_t* in = &rows[static_cast<size_t>(r) * next.width];
@@ -95,29 +120,30 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
 
   // The scan at every angle of the window, as cells of the grid with the window's centre shift.
   std::vector<double> angles;
-  std::vector<std::vector<std::pair<int, int>>> rotated;
+  std::vector<Rotated> rotated;
   for (int k = -turns; k <= turns; ++k) {
     const double theta = window.center.yaw + k * dtheta;
     const double c = std::cos(theta), s = std::sin(theta);
-    std::vector<std::pair<int, int>> cells;
-    cells.reserve(points.size());
+    Rotated r;
+    r.cells.reserve(points.size());
     for (const auto& [px, py] : points) {
       const double x = window.center.x + c * px - s * py, y = window.center.y + s * px + c * py;
-      cells.emplace_back(static_cast<int>(std::floor((x - grid_->originX()) / res)),
-                         static_cast<int>(std::floor((y - grid_->originY()) / res)));
+      const int cx = static_cast<int>(std::floor((x - grid_->originX()) / res));
+      const int cy = static_cast<int>(std::floor((y - grid_->originY()) / res));
+      if (r.cells.empty()) r.min_x = r.max_x = cx, r.min_y = r.max_y = cy;
+      r.cells.emplace_back(cx, cy);
+      r.min_x = std::min(r.min_x, cx), r.max_x = std::max(r.max_x, cx);
+      r.min_y = std::min(r.min_y, cy), r.max_y = std::max(r.max_y, cy);
     }
     angles.push_back(theta);
-    rotated.push_back(std::move(cells));
+    rotated.push_back(std::move(r));
   }
   const double n = 255.0 * static_cast<double>(points.size());
   size_t evaluations = 0;
   auto score = [&](const Candidate& c, int h) {
     ++evaluations;
     result.exhausted = evaluations > kMaxEvaluations;
-    const Level& level = levels_[h];
-    int64_t sum = 0;
-    for (const auto& [cx, cy] : rotated[c.rotation]) sum += level.at(cx + c.dx, cy + c.dy);
-    return static_cast<float>(sum / n);
+    return static_cast<float>(sumAt(levels_[h], rotated[c.rotation], c.dx, c.dy) / n);
   };
   // The prior's factor for a yaw offset, and its largest value over the translations of a
   // candidate covering offsets [dx, dx + size) x [dy, dy + size) (its nearest point to 0).
