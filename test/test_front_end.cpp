@@ -2,6 +2,7 @@
 // ICP on real consecutive scans, grid updates, and the whole cascade on a real log excerpt.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -21,6 +22,7 @@
 #include "mrslam/slam/log_writers.h"
 #include "mrslam/slam/scan_matcher.h"
 #include "mrslam/slam/simulated_gyro.h"
+#include "mrslam/slam/submap.h"
 #include "test_data.h"
 #include "test_logs.h"
 
@@ -392,6 +394,60 @@ TEST(GridMapper, RealScanMarksWallsOccupiedAndRaysFree) {
   const int width = grid.width;
   mapper.insert(r.scan, Pose2D{40.0, 0.0, 0.0});
   EXPECT_GT(mapper.geometry().width, width);
+}
+
+// A submap's export is the window of its known cells: MRPT grows its grid with margins that
+// stay unknown, and the exports of a large building's submaps held mostly those.
+TEST(GridMapper, TheKnownWindowHoldsEveryKnownCellAndNoUnknownMargin) {
+  GridMapper mapper(GridMapperParams{}, intelLog().laser_in_base);
+  const OccupancyGrid nothing = mapper.toKnownGrid();
+  EXPECT_EQ(nothing.width * nothing.height, 1);
+  EXPECT_EQ(nothing.data.front(), OccupancyGrid::kUnknown);
+  mapper.insert(intelLog().records[10].scan, Pose2D{});
+  mapper.insert(intelLog().records[40].scan, Pose2D{3.0, 1.0, 0.5});
+  const OccupancyGrid full = mapper.toGrid(), window = mapper.toKnownGrid();
+  ASSERT_TRUE(validateGrid(window).empty());
+  EXPECT_LT(window.data.size(), full.data.size());
+  const int dx = static_cast<int>(std::lround((window.origin.x - full.origin.x) / full.resolution));
+  const int dy = static_cast<int>(std::lround((window.origin.y - full.origin.y) / full.resolution));
+  size_t known = 0;
+  for (int r = 0; r < full.height; ++r)
+    for (int c = 0; c < full.width; ++c) {
+      if (full.at(c, r) < 0) continue;
+      ++known;
+      const int wc = c - dx, wr = r - dy;
+      ASSERT_TRUE(wc >= 0 && wr >= 0 && wc < window.width && wr < window.height) << c << "," << r;
+      ASSERT_EQ(window.at(wc, wr), full.at(c, r));
+    }
+  EXPECT_EQ(known, static_cast<size_t>(std::count_if(window.data.begin(), window.data.end(), [](int8_t v) { return v >= 0; })));
+  auto row_known = [&](int r) { for (int c = 0; c < window.width; ++c) if (window.at(c, r) >= 0) return true; return false; };
+  auto col_known = [&](int c) { for (int r = 0; r < window.height; ++r) if (window.at(c, r) >= 0) return true; return false; };
+  EXPECT_TRUE(row_known(0) && row_known(window.height - 1) && col_known(0) && col_known(window.width - 1));
+}
+
+// A finished submap holds its cells once, in its export; moved by the graph, it is drawn again
+// and holds them once again.
+TEST(Submap, AFinishedSubmapHoldsItsCellsOnlyInItsExport) {
+  const RobotLog& log = intelLog();
+  Submap submap(0, GridMapperParams{}, log.laser_in_base, 0.05);
+  std::vector<Pose2D> poses;
+  for (int i = 0; i < 3; ++i) {
+    const Pose2D pose{0.3 * i, 0.0, 0.0};
+    submap.addNode(i, pose);
+    submap.insert(log.records[10 + i].scan, i, Pose2D{}, pose, pose);
+    poses.push_back(pose);
+  }
+  const std::shared_ptr<const OccupancyGrid> drawing = submap.grid();
+  EXPECT_GT(submap.gridBytes(), 2 * drawing->data.size());  // the mapper's cells and the export
+  submap.finish(1.0);
+  EXPECT_EQ(submap.grid(), drawing);  // unchanged cells are not exported again
+  EXPECT_EQ(submap.gridBytes(), drawing->data.size() + 1);  // the mapper keeps one cell
+  poses[2].yaw += 0.1;  // an optimisation turned the last node
+  ASSERT_TRUE(submap.follow(poses, 0.05, 0.0087));
+  const std::shared_ptr<const OccupancyGrid> redrawn = submap.grid();
+  EXPECT_NE(redrawn, drawing);
+  EXPECT_NE(redrawn->data, drawing->data);
+  EXPECT_EQ(submap.gridBytes(), redrawn->data.size() + 1);
 }
 
 TEST(EkfFrontEnd, IntelExcerptTracksTheReferenceAndIgnoresBadScans) {

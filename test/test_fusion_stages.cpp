@@ -1,4 +1,7 @@
 // One test group per stage of the fusion pipeline, on crops of real maps.
+#include <algorithm>
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -344,6 +347,41 @@ TEST(ChamferPolish, TruncatedDistanceIsExactBelowItsReach) {
       }
     }
   EXPECT_GT(near, 5000);  // the crop has walls to measure from
+}
+
+// The merge sums a large map a band of rows at a time; every cell, on either side of each
+// band's edge, must be the log-odds sum of the cells the two maps have there.
+TEST(GridMerge, MapsTallerThanOneBandMergeCellForCell) {
+  const OccupancyGrid& a = intel();  // 761 rows: three bands
+  const int shift_cols = 7, shift_rows = 300;
+  const Pose2D shift{shift_cols * a.resolution, shift_rows * a.resolution, 0.0};
+  const OccupancyGrid merged = mergeGrids(a, {{&a, shift}});
+  // Merged cell (c, r) is cell (c + oc, r + or) of `a` (the bounds may gain a cell of rounding).
+  const int oc = static_cast<int>(std::lround((merged.origin.x - a.origin.x) / a.resolution));
+  const int or_ = static_cast<int>(std::lround((merged.origin.y - a.origin.y) / a.resolution));
+  ASSERT_GE(merged.width, a.width + shift_cols);
+  ASSERT_GE(merged.height, a.height + shift_rows);
+  auto logit = [](int v) {
+    const double p = std::clamp(v / 100.0, 0.02, 0.98);
+    return static_cast<float>(std::log(p / (1.0 - p)));
+  };
+  auto known = [&](int c, int r) { return c >= 0 && r >= 0 && c < a.width && r < a.height && a.at(c, r) >= 0; };
+  size_t both = 0;
+  for (int r = 0; r < merged.height; ++r)
+    for (int c = 0; c < merged.width; ++c) {
+      const int ac = c + oc, ar = r + or_, bc = ac - shift_cols, br = ar - shift_rows;
+      const bool in_a = known(ac, ar), in_b = known(bc, br);
+      if (!in_a && !in_b) {
+        ASSERT_EQ(merged.at(c, r), OccupancyGrid::kUnknown) << c << "," << r;
+        continue;
+      }
+      float sum = 0.0f;
+      if (in_a) sum += logit(a.at(ac, ar));
+      if (in_b) sum += logit(a.at(bc, br));
+      both += in_a && in_b;
+      ASSERT_EQ(merged.at(c, r), static_cast<int8_t>(std::lround(100.0 / (1.0 + std::exp(-sum))))) << c << "," << r;
+    }
+  EXPECT_GT(both, 50000u);  // 68 662 cells both maps know
 }
 
 TEST(GridMerge, PlacesPiecesBackWhereTheyCameFrom) {

@@ -34,11 +34,18 @@ class GridMapper {
   // Inserts the scan taken with base_link at `pose` in the map frame.
   void insert(const LaserScan& scan, const Pose2D& pose);
   void clear();
+  // Frees the cells and leaves an empty map of one cell, version unchanged: for a grid whose
+  // cells were exported and will not change unless drawn again from clear() on.
+  void release();
 
   GridGeometry geometry() const;
   // Writes width * height cells (row 0 at the bottom) into `cells`: -1 unknown, 0..100.
   void exportCells(int8_t* cells) const;
   OccupancyGrid toGrid() const;
+  // The smallest window of the grid holding every cell a ray touched: MRPT grows its grid with
+  // margins, and one submap's scans leave most of it unknown (Radish logs: the known window is
+  // 0.5-0.7 of the grid).
+  OccupancyGrid toKnownGrid() const;
   // Bumps on every insert(): lets a publisher tell whether the map changed.
   uint64_t version() const { return version_; }
 

@@ -9,11 +9,13 @@
 namespace mrslam::slam {
 
 struct GridMapper::Impl {
+  // One cell until setSize(): MRPT's default map is 40 m square (640 000 cells at 5 cm).
+  explicit Impl(float resolution) : map(0, resolution, 0, resolution, resolution) {}
   mrpt::maps::COccupancyGridMap2D map;
 };
 
 GridMapper::GridMapper(const GridMapperParams& params, const Pose2D& laser_in_base)
-    : params_(params), laser_in_base_(laser_in_base), impl_(std::make_unique<Impl>()) {
+    : params_(params), laser_in_base_(laser_in_base), impl_(std::make_unique<Impl>(static_cast<float>(params.resolution))) {
   clear();
 }
 
@@ -30,6 +32,10 @@ void GridMapper::clear() {
   o.considerInvalidRangesAsFreeSpace = false;  // a NaN or "no return" says nothing
   o.wideningBeamsWithDistance = false;
   ++version_;
+}
+
+void GridMapper::release() {
+  impl_ = std::make_unique<Impl>(static_cast<float>(params_.resolution));  // setSize() keeps capacity
 }
 
 namespace {
@@ -87,13 +93,51 @@ GridGeometry GridMapper::geometry() const {
   return g;
 }
 
+namespace {
+
+// Log-odds 0 is a cell no ray has touched (updates never land exactly on 0 in practice).
+int8_t percent(mrpt::maps::COccupancyGridMap2D::cellType logodds) {
+  return logodds == 0 ? OccupancyGrid::kUnknown
+                      : static_cast<int8_t>(std::lround(100.0f * (1.0f - mrpt::maps::COccupancyGridMap2D::l2p(logodds))));
+}
+
+}  // namespace
+
 void GridMapper::exportCells(int8_t* cells) const {
   const auto& raw = impl_->map.getRawMap();
-  for (size_t i = 0; i < raw.size(); ++i) {
-    // Log-odds 0 is a cell no ray has touched (updates never land exactly on 0 in practice).
-    cells[i] = raw[i] == 0 ? OccupancyGrid::kUnknown
-                           : static_cast<int8_t>(std::lround(100.0f * (1.0f - mrpt::maps::COccupancyGridMap2D::l2p(raw[i]))));
+  for (size_t i = 0; i < raw.size(); ++i) cells[i] = percent(raw[i]);
+}
+
+OccupancyGrid GridMapper::toKnownGrid() const {
+  const GridGeometry g = geometry();
+  const auto& raw = impl_->map.getRawMap();
+  int x0 = g.width, x1 = -1, y0 = g.height, y1 = -1;
+  for (int y = 0; y < g.height; ++y) {
+    const auto* row = &raw[static_cast<size_t>(y) * g.width];
+    int first = 0, last = g.width - 1;
+    while (first < g.width && row[first] == 0) ++first;
+    if (first == g.width) continue;
+    while (row[last] == 0) --last;
+    x0 = std::min(x0, first), x1 = std::max(x1, last), y0 = std::min(y0, y), y1 = y;
   }
+  OccupancyGrid grid;
+  grid.resolution = g.resolution;
+  grid.origin = g.origin;
+  if (x1 < 0) {  // nothing known: one unknown cell
+    grid.width = grid.height = 1;
+    grid.data.assign(1, OccupancyGrid::kUnknown);
+    return grid;
+  }
+  grid.width = x1 - x0 + 1;
+  grid.height = y1 - y0 + 1;
+  grid.origin = {g.origin.x + x0 * g.resolution, g.origin.y + y0 * g.resolution, 0.0};
+  grid.data.resize(static_cast<size_t>(grid.width) * grid.height);
+  for (int y = 0; y < grid.height; ++y) {
+    const auto* row = &raw[static_cast<size_t>(y + y0) * g.width + x0];
+    int8_t* out = &grid.data[static_cast<size_t>(y) * grid.width];
+    for (int x = 0; x < grid.width; ++x) out[x] = percent(row[x]);
+  }
+  return grid;
 }
 
 OccupancyGrid GridMapper::toGrid() const {

@@ -33,12 +33,14 @@ bool Submap::follow(const std::vector<Pose2D>& node_poses, double xy, double yaw
     d.pose = now(d);
     mapper_.insert(d.scan, d.pose);
   }
+  if (finished_) freeze();
   return true;
 }
 
 void Submap::finish(double travel) {
   finished_ = true;
   finished_travel_ = travel;
+  freeze();
 }
 
 const std::pair<int, Pose2D>& Submap::nearestNode(double x, double y) const {
@@ -58,10 +60,20 @@ void Submap::poseCircle(double& cx, double& cy, double& radius) const {
 
 std::shared_ptr<const OccupancyGrid> Submap::grid() const {
   if (grid_version_ != mapper_.version()) {
-    grid_ = std::make_shared<const OccupancyGrid>(mapper_.toGrid());
+    grid_ = std::make_shared<const OccupancyGrid>(mapper_.toKnownGrid());
     grid_version_ = mapper_.version();
   }
   return grid_;
+}
+
+size_t Submap::gridBytes() const {
+  const GridGeometry g = mapper_.geometry();
+  return static_cast<size_t>(g.width) * g.height + (grid_ ? grid_->data.size() : 0);
+}
+
+void Submap::freeze() {
+  grid();
+  mapper_.release();
 }
 
 }  // namespace mrslam::slam
