@@ -705,6 +705,35 @@ TEST(LogToBagCli, OutOfRangeOptionsAndTimesAreRefusedWithNothingLeftBehind) {
   ASSERT_EQ(test::runCommand(bin + " " + dir + "/ok.log " + bag + " --simulated-imu").status, 0);
 }
 
+// A log with no odometry becomes a bag with none: zero motion on an odom topic would tell the
+// stack that the robot stood still at every scan.
+TEST(LogToBagCli, ALaserOnlyLogGivesABagWithoutOdometry) {
+  const std::string bin = MRSLAM_LOG_TO_BAG_BIN;
+  const std::string dir = ::testing::TempDir();
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(20);
+  writeCarmenLog(excerpt, dir + "/with_odometry.log");
+  excerpt.has_odometry = false;
+  writeCarmenLog(excerpt, dir + "/laser_only.log");
+  auto topics = [&](const std::string& log, std::string& said) {
+    const std::string bag = dir + "/topics.bag";
+    std::remove(bag.c_str());
+    const auto r = test::runCommand(bin + " " + log + " " + bag);
+    EXPECT_EQ(r.status, 0) << r.output;
+    said = r.output;
+    return test::runCommand("rosbag info --yaml --key=topics " + bag).output;
+  };
+  std::string said;
+  const std::string with = topics(dir + "/with_odometry.log", said);
+  EXPECT_NE(with.find("/robot1/odom"), std::string::npos) << with;
+  EXPECT_EQ(said.find("no odometry"), std::string::npos) << said;
+  const std::string without = topics(dir + "/laser_only.log", said);
+  EXPECT_NE(without.find("/robot1/scan"), std::string::npos) << without;
+  EXPECT_NE(without.find("/tf"), std::string::npos) << without;  // base_link -> laser still
+  EXPECT_EQ(without.find("/robot1/odom"), std::string::npos) << without;
+  EXPECT_NE(said.find("odometry:=false"), std::string::npos) << said;
+}
+
 TEST(MapSaverCli, TimeoutsAreValidated) {
   for (const char* timeout : {"0", "abc", "1e10", "-1"}) {
     const auto r = test::runCommand(std::string(MRSLAM_MAP_SAVER_BIN) + " /map /tmp/never.yaml --timeout " + std::string(timeout));

@@ -10,7 +10,9 @@
 // parts of one building at the same time. Without --robot the whole log is robot1.
 // Per robot, in its namespace: NAME/scan (sensor_msgs/LaserScan, frame NAME/laser),
 // NAME/odom (nav_msgs/Odometry NAME/odom -> NAME/base_link, the log's raw wheel odometry
-// chained), tf NAME/odom -> NAME/base_link and NAME/base_link -> NAME/laser with every scan,
+// chained), tf NAME/odom -> NAME/base_link and NAME/base_link -> NAME/laser with every scan
+// (a log with no odometry at all gets neither NAME/odom nor the odom tf: play it with
+// robot.launch odometry:=false; zero motion would claim the robot stood still),
 // and with --simulated-imu NAME/imu_simulated (sensor_msgs/Imu, SIMULATED gyro from the
 // log's reference trajectory, see simulated_gyro.h; orientation and acceleration marked
 // unknown). The log's reference poses, when it has them, go to NAME/reference_pose
@@ -179,10 +181,10 @@ void writeScan(rosbag::Bag& bag, const std::string& ns, const slam::RobotLog& lo
   odom.pose.pose.position.y = odometry.y;
   odom.pose.pose.orientation = yawToQuaternion(odometry.yaw);
   tf2_msgs::TFMessage tf;
-  tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry));
+  if (log.has_odometry) tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry));
   tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
   // Odometry and tf first: a consumer has the motion up to the scan when the scan arrives.
-  bag.write("/" + ns + "/odom", stamp, odom);
+  if (log.has_odometry) bag.write("/" + ns + "/odom", stamp, odom);
   bag.write("/tf", stamp, tf);
   bag.write("/" + ns + "/scan", stamp, scan);
   if (r.has_reference) {
@@ -281,7 +283,8 @@ int main(int argc, char** argv) {
       }
       std::cout << ns << ": " << scans[w].size() << " scans from " << o.windows[w].start << " s to "
                 << (o.windows[w].end > 0 ? std::to_string(o.windows[w].end) + " s" : std::string("the end")) << " of "
-                << o.log_path << "\n";
+                << o.log_path << (log.has_odometry ? "" : " (no odometry: no " + ns + "/odom nor odom tf; play it with robot.launch odometry:=false)")
+                << "\n";
     }
     bag->close();
   } catch (const std::exception& e) {
