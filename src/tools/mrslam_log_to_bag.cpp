@@ -173,18 +173,20 @@ void writeScan(rosbag::Bag& bag, const std::string& ns, const slam::RobotLog& lo
   scan.range_min = static_cast<float>(r.scan.range_min);
   scan.range_max = static_cast<float>(r.scan.range_max);
   scan.ranges = r.scan.ranges;
-  nav_msgs::Odometry odom;
-  odom.header.stamp = stamp;
-  odom.header.frame_id = ns + "/odom";
-  odom.child_frame_id = ns + "/base_link";
-  odom.pose.pose.position.x = odometry.x;
-  odom.pose.pose.position.y = odometry.y;
-  odom.pose.pose.orientation = yawToQuaternion(odometry.yaw);
-  tf2_msgs::TFMessage tf;
-  if (log.has_odometry) tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry));
-  tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
   // Odometry and tf first: a consumer has the motion up to the scan when the scan arrives.
-  if (log.has_odometry) bag.write("/" + ns + "/odom", stamp, odom);
+  tf2_msgs::TFMessage tf;
+  if (log.has_odometry) {
+    nav_msgs::Odometry odom;
+    odom.header.stamp = stamp;
+    odom.header.frame_id = ns + "/odom";
+    odom.child_frame_id = ns + "/base_link";
+    odom.pose.pose.position.x = odometry.x;
+    odom.pose.pose.position.y = odometry.y;
+    odom.pose.pose.orientation = yawToQuaternion(odometry.yaw);
+    bag.write("/" + ns + "/odom", stamp, odom);
+    tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry));
+  }
+  tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
   bag.write("/tf", stamp, tf);
   bag.write("/" + ns + "/scan", stamp, scan);
   if (r.has_reference) {
