@@ -85,6 +85,29 @@ TEST(MapIo, RoundTripKeepsCellsAndOrigin) {
   }
 }
 
+// The PGM is written a row at a time (a map is never held twice as an image): the file must be
+// the one OpenCV wrote from the whole image, byte for byte, map_saver's trinary rule included.
+TEST(MapIo, ThePgmWrittenRowByRowIsTheImageOpenCvWrites) {
+  OccupancyGrid g;
+  g.width = 7, g.height = 3, g.resolution = 0.05;
+  g.data = {-1, 0, 25, 26, 64, 65, 100, 100, 65, 64, 26, 25, 0, -1, 0, 0, 100, -1, 50, 50, 0};
+  for (const OccupancyGrid& grid : {g, loadMap(test::referenceMap("freiburg-079"))}) {
+    cv::Mat image(grid.height, grid.width, CV_8U);
+    for (int r = 0; r < grid.height; ++r)
+      for (int c = 0; c < grid.width; ++c) {
+        const int v = grid.at(c, r);
+        image.at<uint8_t>(grid.height - 1 - r, c) = v < 0 ? 205 : (v >= 65 ? 0 : (v <= 25 ? 254 : 205));
+      }
+    std::vector<uchar> expected;
+    ASSERT_TRUE(cv::imencode(".pgm", image, expected));
+    const fs::path yaml = tempDir() / "rows.yaml";
+    saveMap(grid, yaml.string(), ".pgm");
+    std::ifstream in(tempDir() / "rows.pgm", std::ios::binary);
+    const std::vector<uchar> written{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    EXPECT_EQ(written, expected) << grid.width << " x " << grid.height;
+  }
+}
+
 TEST(MapIo, HonoursNegateScaleAndRawModes) {
   const fs::path dir = tempDir();
   cv::Mat image(1, 4, CV_8U);

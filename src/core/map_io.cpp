@@ -121,15 +121,57 @@ void checkPngStructure(const std::string& path, const std::string& yaml_path) {
   }
 }
 
-// Writes `bytes` to `path`, every failure (cannot open, short write, flush or close) an error.
-void writeFile(const std::string& path, const std::string& bytes) {
+// Writes to `path` whatever `write` puts on the stream, every failure (cannot open, short
+// write, flush or close) an error.
+template <typename Write>
+void writeFile(const std::string& path, Write write) {
   std::ofstream out(path, std::ios::binary);
   if (!out) fail(path, "cannot open for writing");
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  write(out);
   out.flush();
   if (!out) fail(path, "write failed (disk full?)");
   out.close();
   if (!out) fail(path, "write failed when closing (disk full?)");
+}
+
+void writeBytes(std::ostream& out, const void* bytes, size_t size) {
+  out.write(static_cast<const char*>(bytes), static_cast<std::streamsize>(size));
+}
+
+// map_saver's trinary rule: >= 65 occupied (0), <= 25 free (254), else unknown (205).
+uint8_t trinaryPixel(int v) { return v < 0 ? 205 : (v >= 65 ? 0 : (v <= 25 ? 254 : 205)); }
+
+// The image's row `image_row` (top row first, as images are stored).
+void trinaryRow(const OccupancyGrid& grid, int image_row, uint8_t* out) {
+  const int r = grid.height - 1 - image_row;
+  for (int c = 0; c < grid.width; ++c) out[c] = trinaryPixel(grid.at(c, r));
+}
+
+// A binary PGM written a row at a time, byte for byte what OpenCV writes: the image is never
+// held whole (Freiburg campus's 31 M cells were held three times over while being written).
+void writePgm(const OccupancyGrid& grid, const std::string& path) {
+  writeFile(path, [&grid](std::ostream& out) {
+    out << "P5\n" << grid.width << ' ' << grid.height << "\n255\n";
+    std::vector<uint8_t> row(grid.width);
+    for (int k = 0; k < grid.height && out; ++k) {
+      trinaryRow(grid, k, row.data());
+      writeBytes(out, row.data(), row.size());
+    }
+  });
+}
+
+void writePng(const OccupancyGrid& grid, const std::string& path) {
+  std::vector<uchar> encoded;
+  {
+    cv::Mat image(grid.height, grid.width, CV_8U);
+    for (int k = 0; k < grid.height; ++k) trinaryRow(grid, k, image.ptr<uint8_t>(k));
+    try {
+      if (!cv::imencode(".png", image, encoded)) fail(path, "cannot encode image");
+    } catch (const cv::Exception& e) {
+      fail(path, std::string("cannot encode image: ") + e.what());
+    }
+  }
+  writeFile(path, [&encoded](std::ostream& out) { writeBytes(out, encoded.data(), encoded.size()); });
 }
 
 }  // namespace
@@ -248,34 +290,21 @@ void saveMap(const OccupancyGrid& grid, const std::string& yaml_path,
   if (image_extension != ".pgm" && image_extension != ".png")
     fail(yaml_path, "image extension must be .pgm or .png");
 
-  // map_saver's trinary rule: >= 65 occupied (0), <= 25 free (254), else unknown (205).
-  cv::Mat image(grid.height, grid.width, CV_8U);
-  for (int r = 0; r < grid.height; ++r) {
-    uint8_t* row = image.ptr<uint8_t>(grid.height - 1 - r);
-    for (int c = 0; c < grid.width; ++c) {
-      const int v = grid.at(c, r);
-      row[c] = v < 0 ? 205 : (v >= 65 ? 0 : (v <= 25 ? 254 : 205));
-    }
-  }
   const fs::path yaml(yaml_path);
   fs::path image_path = yaml;
   image_path.replace_extension(image_extension);
-  // Encoded in memory and written with checks: a full disk or a bad device is an error, not a
-  // quietly short file.
-  std::vector<uchar> encoded;
-  try {
-    if (!cv::imencode(image_extension, image, encoded)) fail(image_path.string(), "cannot encode image");
-  } catch (const cv::Exception& e) {
-    fail(image_path.string(), std::string("cannot encode image: ") + e.what());
-  }
-  writeFile(image_path.string(), std::string(encoded.begin(), encoded.end()));
+  if (image_extension == ".pgm")
+    writePgm(grid, image_path.string());
+  else
+    writePng(grid, image_path.string());
   std::ostringstream yaml_text;
   yaml_text.precision(17);
   yaml_text << "image: " << image_path.filename().string() << "\n"
             << "resolution: " << grid.resolution << "\n"
             << "origin: [" << grid.origin.x << ", " << grid.origin.y << ", " << grid.origin.yaw << "]\n"
             << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
-  writeFile(yaml_path, yaml_text.str());
+  const std::string text = yaml_text.str();
+  writeFile(yaml_path, [&text](std::ostream& out) { out << text; });
 }
 
 }  // namespace mrslam
