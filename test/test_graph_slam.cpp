@@ -120,6 +120,55 @@ TEST(CorrelativeMatcher, GivesUpWhereTheGridScoresAlikeEverywhere) {
   EXPECT_FALSE(matcher.match(scan, SearchWindow{Pose2D{}, 0.1, 1 * kDeg}, 0.55).exhausted);
 }
 
+// The loop closer makes room in its cache for a matcher before building it, by this figure.
+TEST(CorrelativeMatcher, TheBytesKnownBeforeBuildingAreTheBytesBuilt) {
+  const ScanPair p = scanPair(300, 302);
+  for (const int levels : {1, 2, 5, 7}) {
+    const CorrelativeMatcher matcher(p.grid, levels);
+    EXPECT_EQ(CorrelativeMatcher::bytesFor(*p.grid, levels), matcher.bytes()) << levels << " levels";
+  }
+}
+
+// The tracker's seed grid is rebuilt in place at nearly every key scan: in buffers that held a
+// larger grid, or a smaller one, it must search exactly as one built afresh.
+TEST(CorrelativeMatcher, AGridRebuiltInPlaceSearchesAsOneBuiltAfresh) {
+  const RobotLog& log = intelLog();
+  auto pointsOf = [&](size_t first, size_t count) {
+    Points2 all;
+    for (size_t k = first; k < first + count; ++k) {
+      const Points2 scan = transformPoints(scanPoints(log.records[k].scan, log.laser_in_base), log.records[k].reference);
+      all.insert(all.end(), scan.begin(), scan.end());
+    }
+    return thinPoints(all, 0.05);
+  };
+  auto in_place = std::make_shared<LikelihoodGrid>(pointsOf(300, 2), 0.05, 0.05, 1.0);
+  CorrelativeMatcher recycled(in_place, 5);
+  for (const auto& [first, count] : {std::pair<size_t, size_t>{500, 40}, {300, 2}, {700, 10}}) {
+    const Points2 map = pointsOf(first, count);
+    in_place->rebuild(map, 0.05, 0.05, 1.0);
+    recycled.refresh();
+    const auto fresh_grid = std::make_shared<const LikelihoodGrid>(map, 0.05, 0.05, 1.0);
+    const CorrelativeMatcher fresh(fresh_grid, 5);
+    ASSERT_EQ(in_place->width(), fresh_grid->width());
+    ASSERT_EQ(in_place->height(), fresh_grid->height());
+    EXPECT_EQ(in_place->originX(), fresh_grid->originX());
+    EXPECT_EQ(in_place->originY(), fresh_grid->originY());
+    EXPECT_EQ(in_place->values(), fresh_grid->values());
+    EXPECT_EQ(recycled.bytes(), fresh.bytes());
+    const size_t next = first + count;
+    const Points2 scan = thinPoints(scanPoints(log.records[next].scan, log.laser_in_base), 0.1);
+    const Pose2D guess = log.records[next].reference.compose(Pose2D{0.3, -0.2, 4 * kDeg});
+    const CorrelativeMatch a = recycled.match(scan, SearchWindow{guess, 0.6, 10 * kDeg}, 0.1);
+    const CorrelativeMatch b = fresh.match(scan, SearchWindow{guess, 0.6, 10 * kDeg}, 0.1);
+    ASSERT_TRUE(b.found) << "scan " << next;
+    EXPECT_EQ(a.found, b.found);
+    EXPECT_EQ(a.score, b.score) << "scan " << next;
+    EXPECT_EQ(a.pose.x, b.pose.x);
+    EXPECT_EQ(a.pose.y, b.pose.y);
+    EXPECT_EQ(a.pose.yaw, b.pose.yaw);
+  }
+}
+
 TEST(CorrelativeMatcher, FindsRealScanPairsFromAPoorGuessAndSaysWhenNothingFits) {
   int good = 0, tried = 0;
   for (size_t k = 10; k < 900; k += 45) {
@@ -291,6 +340,7 @@ TEST(GraphSlam, TheLoopClosersSearchGridsStayWithinTheirBudget) {
       peak = std::max(peak, slam.loopSearchBytes());
     }
     slam.finish();
+    EXPECT_EQ(slam.loopSearchBytes(), 0u) << "no scan follows finish(): its search grids are freed";
     return slam.trajectory();
   };
   size_t roomy_peak = 0, tight_peak = 0;

@@ -56,6 +56,9 @@ class CorrelativeMatcher {
   // Not copyable: the levels point into the grid and into their own buffers.
   CorrelativeMatcher(const CorrelativeMatcher&) = delete;
   CorrelativeMatcher& operator=(const CorrelativeMatcher&) = delete;
+  // Builds the levels again after the grid was rebuilt in place (LikelihoodGrid::rebuild), in
+  // their own buffers.
+  void refresh();
 
   // The best pose in the window for `points` (in the scan frame); not found when no pose
   // scores min_score. With `excluded`, poses within `exclude_xy` m and `exclude_yaw` rad of it
@@ -66,6 +69,9 @@ class CorrelativeMatcher {
   const LikelihoodGrid& grid() const { return *grid_; }
   // Bytes held by the grid and its max-pooled copies (what a cache of matchers must budget).
   size_t bytes() const;
+  // The bytes a matcher of `levels` levels on `grid` will hold, known before it is built (a
+  // cache makes room first rather than holding the new one beside a full budget).
+  static size_t bytesFor(const LikelihoodGrid& grid, int levels);
 
  private:
   struct Level {
@@ -78,9 +84,12 @@ class CorrelativeMatcher {
   struct Rotated;
   // Sum of the level's cells under `cells` shifted by (dx, dy); cells outside count 0.
   static int64_t sumAt(const Level& level, const Rotated& rotated, int dx, int dy);
+  // Levels 0.. from the grid, in the levels' own buffers; `row_pass` is scratch.
+  void buildLevels(std::vector<uint8_t>& row_pass);
 
   std::shared_ptr<const LikelihoodGrid> grid_;
   std::vector<Level> levels_;
+  std::vector<uint8_t> row_pass_;  // refresh()'s scratch (a level maxed along its rows), kept for the next
 };
 
 }  // namespace mrslam::slam

@@ -19,6 +19,9 @@ class LikelihoodGrid {
   LikelihoodGrid() = default;
   // Covers the points plus `margin` metres on every side. `sigma` in metres.
   LikelihoodGrid(const Points2& reference, double resolution, double sigma, double margin);
+  // The same grid for new points, in the cells' own buffer: a grid rebuilt at nearly every scan
+  // (the tracker's seed) neither allocates nor pages in megabytes each time.
+  void rebuild(const Points2& reference, double resolution, double sigma, double margin);
 
   double resolution() const { return resolution_; }
   double originX() const { return origin_x_; }  // lower-left corner of cell (0, 0)

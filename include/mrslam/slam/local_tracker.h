@@ -35,6 +35,11 @@ class LocalTracker {
   const Pose2D& laserInBase() const { return laser_in_base_; }
   size_t scansTracked() const { return scans_; }
   const OdometryCalibration& calibration() const { return calibration_; }
+  // Frees the seed search's grids (built again from the local map when next needed).
+  void releaseSearchGrids() {
+    seed_matcher_.reset();
+    seed_grid_.reset();
+  }
 
  private:
   // The seed's prior around a prediction: how far odometry itself errs over the increment.
@@ -75,7 +80,8 @@ class LocalTracker {
   Ekf2D ekf_;
   ScanToMapMatcher matcher_;
   OdometryCalibration calibration_;
-  std::unique_ptr<CorrelativeMatcher> seed_matcher_;  // of the local map, rebuilt when it changed
+  std::shared_ptr<LikelihoodGrid> seed_grid_;          // the local map's, rebuilt in place when it changed...
+  std::unique_ptr<CorrelativeMatcher> seed_matcher_;  // ...and searched by this
   uint64_t seed_version_ = 0;
   Pose2D odometry_;  // accumulated since the last scan
   double gyro_yaw_ = 0, gyro_var_ = 0;

@@ -61,6 +61,8 @@ class LoopCloser {
   }
   // Drops the submap's matchers (built again when next needed).
   void forget(int index) { cache_.erase(index); }
+  // Drops every cached matcher (built again when next needed); the search decides the same.
+  void releaseCache() { cache_.clear(); }
   // Bytes the cached matchers' grids hold now (at most loop_matcher_cache_mb, unless one
   // submap's alone is larger).
   size_t cachedBytes() const;

@@ -5,8 +5,15 @@
 
 namespace mrslam::slam {
 
-LikelihoodGrid::LikelihoodGrid(const Points2& reference, double resolution, double sigma, double margin)
-    : resolution_(resolution) {
+LikelihoodGrid::LikelihoodGrid(const Points2& reference, double resolution, double sigma, double margin) {
+  rebuild(reference, resolution, sigma, margin);
+}
+
+void LikelihoodGrid::rebuild(const Points2& reference, double resolution, double sigma, double margin) {
+  resolution_ = resolution;
+  origin_x_ = origin_y_ = 0;
+  width_ = height_ = 0;
+  values_.clear();
   if (reference.empty() || !(resolution > 0) || !(sigma > 0)) return;
   const int reach = static_cast<int>(std::ceil(3.0 * sigma / resolution));
   margin = std::max(margin, (reach + 1) * resolution);  // the kernel must fit around every point

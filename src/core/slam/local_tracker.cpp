@@ -20,7 +20,7 @@ void LocalTracker::reset() {
   // The map frame is the robot's pose at its first scan, known exactly.
   ekf_.reset(Pose2D{}, Eigen::Matrix3d::Identity() * 1e-9);
   matcher_.clear();
-  seed_matcher_.reset();
+  releaseSearchGrids();
   calibration_.reset();
   odometry_ = Pose2D{};
   gyro_yaw_ = gyro_var_ = 0;
@@ -86,9 +86,14 @@ bool LocalTracker::doubted(const Pose2D& u, double stamp) const {
 const LikelihoodGrid& LocalTracker::seedGrid() {
   if (!seed_matcher_ || seed_version_ != matcher_.version()) {
     const SeedParams& sp = params_.seed;
-    auto grid = std::make_shared<const LikelihoodGrid>(matcher_.pointsWithinPath(sp.local_path), sp.resolution, sp.sigma,
-                                                       sp.max_xy);
-    seed_matcher_ = std::make_unique<CorrelativeMatcher>(grid, 5);
+    const Points2 local_map = matcher_.pointsWithinPath(sp.local_path);
+    if (seed_matcher_) {  // in the buffers of the last one: rebuilt at nearly every key scan
+      seed_grid_->rebuild(local_map, sp.resolution, sp.sigma, sp.max_xy);
+      seed_matcher_->refresh();
+    } else {
+      seed_grid_ = std::make_shared<LikelihoodGrid>(local_map, sp.resolution, sp.sigma, sp.max_xy);
+      seed_matcher_ = std::make_unique<CorrelativeMatcher>(seed_grid_, 5);
+    }
     seed_version_ = matcher_.version();
   }
   return seed_matcher_->grid();

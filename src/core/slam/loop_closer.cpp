@@ -13,6 +13,7 @@ constexpr double kRivalYaw = 0.087;    // rad: ...or turned this much (5 degrees
 constexpr double kIcpAgreeXy = 0.3;    // m: ICP may move the correlative match this far...
 constexpr double kIcpAgreeYaw = 0.087; // rad: ...and turn it this much, or the pair is rejected
 constexpr int kMaxGivenUpPerSubmap = 2;  // searches of one submap that may give up before it is left alone
+constexpr int kSearchLevels = 7;         // the correlative search's levels (the coarsest pools 64 x 64 cells)
 }  // namespace
 
 LoopCloser::LoopCloser(const GraphParams& params, const ScanMatcherParams& icp) : params_(params), icp_params_(icp) {}
@@ -32,10 +33,12 @@ const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& subm
   if (it == cache_.end()) {
     Matchers m;
     auto grid = std::make_shared<const LikelihoodGrid>(submap.points(), params_.loop_resolution, params_.loop_sigma, 1.0);
-    m.correlative = std::make_unique<CorrelativeMatcher>(grid, 7);
+    // Room first: the new matcher is never held beside a full budget (Freiburg campus, whose
+    // outdoor submaps take up to 40 MB each, peaked there).
+    makeRoomFor(CorrelativeMatcher::bytesFor(*grid, kSearchLevels));
+    m.correlative = std::make_unique<CorrelativeMatcher>(grid, kSearchLevels);
     m.icp = std::make_unique<PointCloudAligner>(icp_params_);
     m.icp->setReference(submap.points());
-    makeRoomFor(m.correlative->bytes());
     it = cache_.emplace(index, std::move(m)).first;
   }
   it->second.used = ++clock_;
