@@ -77,7 +77,7 @@ size_t CorrelativeMatcher::bytes() const {
 }
 
 size_t CorrelativeMatcher::bytesFor(const LikelihoodGrid& grid, int levels) {
-  // Level h is level h - 1 grown by 2^(h-1) cells each way (the constructor's loop).
+  // Level h is level h - 1 grown by 2^(h-1) cells each way (buildLevels).
   size_t total = grid.values().size();
   size_t width = grid.width(), height = grid.height();
   for (int h = 1; h < std::max(1, levels); ++h) {
@@ -105,7 +105,8 @@ void CorrelativeMatcher::buildLevels(std::vector<uint8_t>& row_pass) {
   // covers x, y down to -(2^h - 1), where a window still reaches into the grid. It is level
   // h - 1 maxed with itself shifted by 2^(h-1), along rows then along columns. The sizes are
   // copied into locals: byte stores may alias the Level they are read from, which kept the
-  // compiler from vectorising the loops (buildLevels took 63 % of a run).
+  // compiler from vectorising the loops (built in place without them, this took 63 % of
+  // Freiburg campus's run).
   for (size_t h = 1; h < levels_.size(); ++h) {
     const int step = 1 << (h - 1);
     const int prev_width = levels_[h - 1].width, prev_height = levels_[h - 1].height;

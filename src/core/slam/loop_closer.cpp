@@ -34,7 +34,7 @@ const LoopCloser::Matchers& LoopCloser::matchersOf(int index, const Submap& subm
     Matchers m;
     auto grid = std::make_shared<const LikelihoodGrid>(submap.points(), params_.loop_resolution, params_.loop_sigma, 1.0);
     // Room first: the new matcher is never held beside a full budget (Freiburg campus, whose
-    // outdoor submaps take up to 40 MB each, peaked there).
+    // outdoor submaps take up to 44 MB of search grids each, peaked there).
     makeRoomFor(CorrelativeMatcher::bytesFor(*grid, kSearchLevels));
     m.correlative = std::make_unique<CorrelativeMatcher>(grid, kSearchLevels);
     m.icp = std::make_unique<PointCloudAligner>(icp_params_);
