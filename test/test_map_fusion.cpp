@@ -12,6 +12,7 @@
 #include "mrslam/bench/pair_maker.h"
 #include "mrslam/fusion/fusion_params_io.h"
 #include "mrslam/fusion/map_fusion.h"
+#include "mrslam/fusion/peer_registry.h"
 #include "mrslam/map_io.h"
 #include "test_data.h"
 
@@ -91,6 +92,152 @@ TEST(MapFusion, AlignsMapsOfTwoTimeWindowsOfARealLog) {
   const Pose2D truth{-12.0, 31.0, -71.0 * kDeg};
   const WindowPair maps = windowPair("intel-corrected.log.gz", 0, 450, 350, 910, truth, 1);
   expectCorrect(alignMaps(maps.a, maps.b, FusionParams{}), maps.b, truth);
+}
+
+// Runs every estimate the registry asks for, direct ones first, as the merge nodelet's worker does.
+void settle(PeerRegistry& registry, const OccupancyGrid& own, const FusionParams& params, double clock) {
+  const MapSummary summary = summarize(own);
+  for (int step = 0; step < 100; ++step) {
+    if (const auto next = registry.nextToEstimate(summary, clock)) {
+      registry.applyEstimate(*next, alignMaps(own, *registry.peers().at(*next).map, params), summary, clock);
+    } else if (const auto relay = registry.nextRelayToEstimate(clock)) {
+      const auto& [id, via] = *relay;
+      registry.applyRelayEstimate(id, via, alignMaps(*registry.peers().at(via).map, *registry.peers().at(id).map, params),
+                                  clock);
+    } else {
+      return;
+    }
+  }
+  ADD_FAILURE() << "the registry kept asking for estimates on unchanged maps";
+}
+
+TEST(PeerRelay, AMapThatDoesNotOverlapOursIsPlacedWhereTwoPeersThatOverlapBothAgree) {
+  // Four robots' maps of the real Intel map: ours (A) in the west, C in the east, B and D (each
+  // in a frame of its own) overlapping both. C shares nothing with A, so it cannot be accepted
+  // directly; aligned to B's and D's maps, the two chains agree and place it where it belongs.
+  const OccupancyGrid intel = loadMap(test::referenceMap("intel"));
+  const OccupancyGrid a = bench::cropGrid(intel, 0, 0, 400, 761);
+  const Pose2D b_truth{4.0, -7.0, 38.0 * kDeg}, c_truth{-9.0, 15.0, -104.0 * kDeg}, d_truth{20.0, 3.0, 171.0 * kDeg};
+  auto piece = [&](int col0, int row0, int cols, int rows, const Pose2D& frame) {
+    return std::make_shared<const OccupancyGrid>(bench::reframeGrid(bench::cropGrid(intel, col0, row0, cols, rows), frame));
+  };
+  const auto b = piece(250, 0, 400, 761, b_truth), c = piece(500, 0, 314, 761, c_truth);
+  const auto d = piece(220, 0, 480, 480, d_truth);
+  const FusionParams params;
+  PeerRegistry registry("robotA");
+  registry.updatePeer("robotB", b, 1, 0.0);
+  registry.updatePeer("robotC", c, 1, 0.0);
+  settle(registry, a, params, 1.0);
+  ASSERT_TRUE(registry.peers().at("robotB").accepted) << registry.peers().at("robotB").last_attempt.reason;
+  ASSERT_FALSE(registry.peers().at("robotC").accepted) << "no overlap with our map: nothing to accept directly";
+  ASSERT_TRUE(registry.peers().at("robotC").relays.at("robotB").accepted) << "C's map fits B's";
+  EXPECT_FALSE(registry.placementOf(registry.peers().at("robotC"))) << "one chain is not enough by default";
+
+  registry.updatePeer("robotD", d, 1, 2.0);
+  settle(registry, a, params, 2.0);
+  ASSERT_TRUE(registry.peers().at("robotD").accepted) << registry.peers().at("robotD").last_attempt.reason;
+  const auto placed = registry.placementOf(registry.peers().at("robotC"));
+  ASSERT_TRUE(placed) << registry.peers().at("robotC").relays.at("robotD").last_attempt.reason;
+  EXPECT_EQ(placed->vias, (std::vector<std::string>{"robotB", "robotD"}));
+  const PoseError e = poseError(*c, placed->pose, c_truth);
+  EXPECT_LE(e.yaw_deg, 1.0);
+  EXPECT_LE(e.cells, 2.0);
+  EXPECT_TRUE(registry.estimateIsCurrent(registry.peers().at("robotC"), summarize(a)));
+  EXPECT_FALSE(registry.nextRelayToEstimate(3.0)) << "nothing changed";
+}
+
+TEST(PeerRelay, ARelayLastsOnlyAsLongAsTheTransformItGoesThrough) {
+  const auto map = std::make_shared<const OccupancyGrid>(loadMap(test::referenceMap("intel")));
+  const MapSummary own = summarize(*map);
+  auto result = [](bool accepted, Pose2D pose) {
+    FusionResult r;
+    r.accepted = r.verdict.accepted = accepted;
+    r.pose = pose;
+    r.verdict.acceptance = 0.98;
+    r.verdict.reason = accepted ? "" : "test rejection";
+    return r;
+  };
+  PeerRegistryParams params;
+  params.relay_min_vias = 1;  // one chain places a peer: the bookkeeping of a single relay
+  PeerRegistry registry("robot1", params);
+  for (const char* id : {"robot2", "robot3", "robot4"}) registry.updatePeer(id, map, 1, 0.0);
+  registry.applyEstimate("robot2", result(true, {1, 0, M_PI / 2}), own, 1.0);
+  registry.applyEstimate("robot3", result(false, {}), own, 1.0);
+  registry.applyEstimate("robot4", result(true, {0, 5, 0}), own, 1.0);
+  // Never tried first, through the accepted peers in id order; none through an unaccepted one.
+  EXPECT_EQ(registry.nextRelayToEstimate(2.0), std::make_pair(std::string("robot3"), std::string("robot2")));
+  EXPECT_TRUE(registry.applyRelayEstimate("robot3", "robot2", result(true, {2, 0, 0}), 2.0));
+  const auto placed = registry.placementOf(registry.peers().at("robot3"));
+  ASSERT_TRUE(placed);
+  EXPECT_NEAR(placed->pose.x, 1.0, 1e-9);  // robot2's frame turned 90 degrees: (2, 0) lands at (1, 2)
+  EXPECT_NEAR(placed->pose.y, 2.0, 1e-9);
+  EXPECT_NEAR(placed->pose.yaw, M_PI / 2, 1e-9);
+  EXPECT_EQ(registry.placementOf(registry.peers().at("robot3"))->vias, std::vector<std::string>{"robot2"});
+  EXPECT_FALSE(registry.parentOf()) << "the tf tree holds direct accepts only";
+
+  // robot2's transform revoked: robot3 is no longer placed, and both are tried through robot4.
+  for (int i = 0; i < params.revoke_after_rejections; ++i) registry.applyEstimate("robot2", result(false, {}), own, 4.0);
+  ASSERT_FALSE(registry.peers().at("robot2").accepted);
+  EXPECT_FALSE(registry.placementOf(registry.peers().at("robot3")));
+  EXPECT_EQ(registry.nextRelayToEstimate(5.0), std::make_pair(std::string("robot2"), std::string("robot4")));
+  registry.applyRelayEstimate("robot2", "robot4", result(false, {}), 5.0);
+  EXPECT_EQ(registry.nextRelayToEstimate(5.0), std::make_pair(std::string("robot3"), std::string("robot4")));
+
+  // A direct accept wins over any relay; a restart of the via forgets the relays through it.
+  registry.applyEstimate("robot2", result(true, {1, 0, M_PI / 2}), own, 6.0);
+  ASSERT_TRUE(registry.placementOf(registry.peers().at("robot3")));
+  registry.applyEstimate("robot3", result(true, {7, 7, 0}), own, 7.0);
+  EXPECT_TRUE(registry.placementOf(registry.peers().at("robot3"))->vias.empty());
+  EXPECT_NEAR(registry.placementOf(registry.peers().at("robot3"))->pose.x, 7.0, 1e-9);
+  registry.updatePeer("robot2", map, 0, 8.0);  // restarted: a new map frame
+  EXPECT_TRUE(registry.peers().at("robot3").relays.empty());
+
+  // Switched off, nothing is relayed.
+  params.relay_min_vias = 0;
+  PeerRegistry off("robot1", params);
+  for (const char* id : {"robot2", "robot3"}) off.updatePeer(id, map, 1, 0.0);
+  off.applyEstimate("robot2", result(true, {}), own, 1.0);
+  off.applyEstimate("robot3", result(false, {}), own, 1.0);
+  EXPECT_FALSE(off.nextRelayToEstimate(2.0));
+}
+
+TEST(PeerRelay, ChainsThatDisagreeDoNotPlaceAPeerAndTheAgreeingOnesArePlacedAtTheirMean) {
+  const auto map = std::make_shared<const OccupancyGrid>(loadMap(test::referenceMap("intel")));
+  const MapSummary own = summarize(*map);
+  auto result = [](bool accepted, Pose2D pose) {
+    FusionResult r;
+    r.accepted = r.verdict.accepted = accepted;
+    r.pose = pose;
+    r.verdict.acceptance = 0.98;
+    return r;
+  };
+  PeerRegistry registry("robot1");  // the defaults: two chains within 0.15 m and 1 degree
+  for (const char* id : {"robot2", "robot3", "robot4", "robot5"}) registry.updatePeer(id, map, 1, 0.0);
+  for (const char* id : {"robot2", "robot3", "robot4"}) registry.applyEstimate(id, result(true, {}), own, 1.0);
+  registry.applyEstimate("robot5", result(false, {}), own, 1.0);
+  // Through robot2 and robot3: 0.4 m apart at the map's centre, so neither places robot5.
+  registry.applyRelayEstimate("robot5", "robot2", result(true, {10.0, 0, 0}), 2.0);
+  registry.applyRelayEstimate("robot5", "robot3", result(true, {10.4, 0, 0}), 2.0);
+  EXPECT_FALSE(registry.placementOf(registry.peers().at("robot5")));
+  // robot4's chain agrees with robot3's (0.1 m): placed at their mean, robot2's left out.
+  registry.applyRelayEstimate("robot5", "robot4", result(true, {10.5, 0, 0}), 2.0);
+  const auto placed = registry.placementOf(registry.peers().at("robot5"));
+  ASSERT_TRUE(placed);
+  EXPECT_EQ(placed->vias, (std::vector<std::string>{"robot3", "robot4"}));
+  EXPECT_NEAR(placed->pose.x, 10.45, 1e-9);
+
+  // Headings: with any distance allowed, 0.8 degrees apart agree and 2 degrees do not.
+  PeerRegistryParams heading_only;
+  heading_only.relay_agree_m = 1e3;
+  PeerRegistry headings("robot1", heading_only);
+  for (const char* id : {"robot2", "robot3", "robot5"}) headings.updatePeer(id, map, 1, 0.0);
+  for (const char* id : {"robot2", "robot3"}) headings.applyEstimate(id, result(true, {}), own, 1.0);
+  headings.applyRelayEstimate("robot5", "robot2", result(true, {10, 0, 0}), 2.0);
+  headings.applyRelayEstimate("robot5", "robot3", result(true, {10, 0, 0.8 * kDeg}), 2.0);
+  ASSERT_TRUE(headings.placementOf(headings.peers().at("robot5")));
+  EXPECT_NEAR(headings.placementOf(headings.peers().at("robot5"))->pose.yaw, 0.4 * kDeg, 1e-9);
+  headings.applyRelayEstimate("robot5", "robot3", result(true, {10, 0, 2.0 * kDeg}), 3.0);
+  EXPECT_FALSE(headings.placementOf(headings.peers().at("robot5")));
 }
 
 TEST(MapFusion, AHeldPoseIsConfirmedOnlyWhereTheMapsStillSupportIt) {

@@ -7,7 +7,8 @@
 // worker thread, so callbacks never block. Publishes: the tf edge of the frame convention in
 // fusion/peer_registry.h (static, robotP/map -> robotN/map), merged_map (OccupancyGrid in our
 // map frame, latched), merge_status (diagnostic_msgs/DiagnosticArray, one status per peer:
-// accepted, x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time, and
+// accepted, via (the peers it is placed through when its map does not overlap ours enough, empty
+// when direct), x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time, and
 // stale: nothing heard from the peer for stale_after s; link_silent_s: how long ago data last
 // arrived on the connection to it, -1 when none is open; while a stale peer's link is silent
 // too, the share subscriptions are re-made every stale_after, see watchShareLinks),
@@ -89,6 +90,9 @@ class MapMergeNodelet : public nodelet::Nodelet {
     registry_params.min_known_cells = static_cast<size_t>(std::max(0, min_known));
     config.param("refresh_period", registry_params.refresh_period, registry_params.refresh_period);
     config.param("revoke_after_rejections", registry_params.revoke_after_rejections, registry_params.revoke_after_rejections);
+    config.param("relay_min_vias", registry_params.relay_min_vias, registry_params.relay_min_vias);
+    config.param("relay_agree_m", registry_params.relay_agree_m, registry_params.relay_agree_m);
+    config.param("relay_agree_deg", registry_params.relay_agree_deg, registry_params.relay_agree_deg);
     registry_ = std::make_unique<fusion::PeerRegistry>(robot_id_, registry_params);
     fusion::PeerQuarantineParams quarantine_params;
     config.param("bad_maps_to_quarantine", quarantine_params.bad_maps_in_a_row, quarantine_params.bad_maps_in_a_row);
@@ -430,6 +434,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     std::string peer_id;
     fusion::MapSummary own_summary;
     std::optional<Pose2D> held;  // the transform we hold: the search verifies it again too
+    std::optional<std::pair<std::string, std::string>> relay_job;  // {peer, via} when no direct estimate is due
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!own_grid_) return;
@@ -440,11 +445,17 @@ class MapMergeNodelet : public nodelet::Nodelet {
         const fusion::Peer& peer = registry_->peers().at(peer_id);
         peer_map = peer.map;
         if (peer.accepted) held = peer.accepted->pose;
+      } else if (auto relay = registry_->nextRelayToEstimate(ros::WallTime::now().toSec())) {
+        relay_job = *relay;
       } else {
         if (!registry_->peers().empty() && (ros::WallTime::now() - last_status_).toSec() >= 1.0)
           publishStatus();  // once a second without news: whether each estimate is still current
         return;
       }
+    }
+    if (relay_job) {
+      estimateRelay(relay_job->first, relay_job->second);
+      return;
     }
     // Our own map may not be fusable yet (no walls): that is nobody's fault, wait for it. A peer
     // map admitted before our resolution was known may still be refused here.
@@ -477,6 +488,33 @@ class MapMergeNodelet : public nodelet::Nodelet {
     publishStatus();
   }
 
+  // A peer we have not accepted, aligned to the map of a peer we have (`via`): the same fusion
+  // and verification as a direct estimate, only against via's map instead of ours.
+  void estimateRelay(const std::string& peer_id, const std::string& via_id) {
+    std::shared_ptr<const OccupancyGrid> peer_map, via_map;
+    std::optional<Pose2D> held;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto& peers = registry_->peers();
+      if (!peers.count(peer_id) || !peers.count(via_id)) return;
+      peer_map = peers.at(peer_id).map;
+      via_map = peers.at(via_id).map;
+      const auto relay = peers.at(peer_id).relays.find(via_id);
+      if (relay != peers.at(peer_id).relays.end() && relay->second.accepted) held = relay->second.accepted->pose;
+    }
+    fusion::FusionResult result;
+    try {
+      result = fusion::alignMaps(*via_map, *peer_map, fusion_params_, held);
+    } catch (const std::exception& e) {  // both maps passed peerMapProblem: a fault, not the peer's
+      recordFault("relay " + peer_id + " via " + via_id, e.what());
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (registry_->applyRelayEstimate(peer_id, via_id, result, ros::Time::now().toSec(), ros::WallTime::now().toSec()))
+      merged_due_ = true;
+    publishStatus();
+  }
+
   void publishParentEdge() {  // mutex_ held
     const auto parent = registry_->parentOf();
     if (!parent) return;
@@ -490,11 +528,13 @@ class MapMergeNodelet : public nodelet::Nodelet {
     std::vector<fusion::PlacedGrid> placed;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      for (const auto& [id, peer] : registry_->peers())
-        if (peer.accepted && peer.map) {
+      for (const auto& [id, peer] : registry_->peers()) {
+        const std::optional<fusion::Placement> where = registry_->placementOf(peer);
+        if (where && peer.map) {
           keep.push_back(peer.map);
-          placed.push_back({peer.map.get(), peer.accepted->pose});
+          placed.push_back({peer.map.get(), where->pose});
         }
+      }
       merged_due_ = false;
       own_changed_since_merge_ = false;
     }
@@ -518,17 +558,19 @@ class MapMergeNodelet : public nodelet::Nodelet {
       diagnostic_updater::DiagnosticStatusWrapper s;
       s.name = id;
       s.hardware_id = robot_id_;
-      s.summary(peer.accepted ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
-                verdictOf(peer));
-      s.add("accepted", peer.accepted.has_value());
-      const PeerEstimateView e = view(peer);
+      const std::optional<fusion::Placement> placed = registry_->placementOf(peer);
+      s.summary(placed ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN,
+                verdictOf(peer, placed));
+      s.add("accepted", placed.has_value());  // merged: directly or through a relay
+      s.add("via", placed ? joined(placed->vias) : std::string());
+      const PeerEstimateView e = view(peer, placed);
       s.add("x", e.x);
       s.add("y", e.y);
       s.add("yaw", e.yaw);
       s.add("acceptance", e.acceptance);
       s.add("last_estimate_time", peer.last_attempt.stamp);
       s.add("first_map_time", peer.first_seen);
-      s.add("accepted_since", peer.accepted_since);
+      s.add("accepted_since", placed ? placed->since : peer.accepted_since);
       s.add("attempts", peer.attempts);
       s.add("estimate_current", registry_->estimateIsCurrent(peer, own_summary_));
       s.add("version", peer.version);
@@ -546,18 +588,27 @@ class MapMergeNodelet : public nodelet::Nodelet {
   }
 
   // The status message: a held transform whose latest re-estimate was rejected says so (it is
-  // not current).
-  static std::string verdictOf(const fusion::Peer& peer) {
-    if (!peer.accepted) return "not accepted: " + peer.last_attempt.reason;
+  // not current); a relayed peer names the peers it is placed through.
+  static std::string verdictOf(const fusion::Peer& peer, const std::optional<fusion::Placement>& placed) {
+    if (placed && !placed->vias.empty())
+      return "accepted via " + joined(placed->vias) + " (directly: " + peer.last_attempt.reason + ")";
+    if (!placed) return "not accepted: " + peer.last_attempt.reason;
     if (peer.last_attempt.accepted) return "accepted";
     return "accepted (held; the last re-estimate was not: " + peer.last_attempt.reason + ")";
+  }
+
+  static std::string joined(const std::vector<std::string>& ids) {
+    std::string out;
+    for (const std::string& id : ids) out += (out.empty() ? "" : " ") + id;
+    return out;
   }
 
   struct PeerEstimateView {
     double x = 0, y = 0, yaw = 0, acceptance = 0;
   };
-  static PeerEstimateView view(const fusion::Peer& peer) {
-    const fusion::PeerEstimate& e = peer.accepted ? *peer.accepted : peer.last_attempt;
+  static PeerEstimateView view(const fusion::Peer& peer, const std::optional<fusion::Placement>& placed) {
+    if (placed) return {placed->pose.x, placed->pose.y, placed->pose.yaw, placed->acceptance};
+    const fusion::PeerEstimate& e = peer.last_attempt;
     return {e.pose.x, e.pose.y, e.pose.yaw, e.acceptance};
   }
 
@@ -590,7 +641,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       return;
     }
     size_t accepted = 0;
-    for (const auto& [id, peer] : registry_->peers()) accepted += peer.accepted.has_value();
+    for (const auto& [id, peer] : registry_->peers()) accepted += registry_->placementOf(peer).has_value();
     status.summary((rejected_maps_ || faults_) && !last_problem_.empty() ? diagnostic_msgs::DiagnosticStatus::WARN
                                                                           : diagnostic_msgs::DiagnosticStatus::OK,
                    std::to_string(accepted) + " of " + std::to_string(registry_->peers().size()) + " peers merged");

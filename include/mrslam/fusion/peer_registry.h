@@ -1,7 +1,8 @@
 // What one robot knows about its peers, for the map-merge nodelet (ROS-free, unit-tested):
 // the latest map of each peer, when to re-estimate a peer's transform (its map or ours has
 // grown enough), which estimate to keep (hysteresis), and which peer's map frame is the tf
-// parent of ours.
+// parent of ours, and where a peer whose map does not overlap ours is placed through a peer
+// we accepted (a relay).
 //
 // Frame convention (keeps tf a tree with one publisher per edge, all robots under one master):
 // robot N publishes exactly one edge, the parent of its own map frame, robotP/map -> robotN/map,
@@ -33,6 +34,12 @@ struct PeerRegistryParams {
                                     // after this long, so the final maps are always used
   int revoke_after_rejections = 3;  // an accepted transform is dropped after this many rejections
                                     // in a row on grown maps: a true overlap only gains evidence
+  // Relays: a peer we cannot accept directly is aligned to the map of every peer we accepted
+  // (one hop each) and placed where at least relay_min_vias of those chains agree (0: never).
+  // One chain adds the errors of two estimates; two that agree are a check on each other.
+  int relay_min_vias = 2;
+  double relay_agree_m = 0.15;   // chains agree when they put the peer map's centre this close...
+  double relay_agree_deg = 1.0;  // ...and its heading this close
 };
 
 struct PeerEstimate {
@@ -53,6 +60,28 @@ struct MapSummary {
 };
 MapSummary summarize(const OccupancyGrid& grid);
 
+// A peer's map aligned to the map of another peer, `via`, that we accepted directly: the same
+// fusion and verification as a direct estimate, with the same hysteresis. Its poses are the
+// peer's map frame in via's map frame.
+struct Relay {
+  MapSummary at_estimate, via_at_estimate;  // both maps when last estimated
+  int attempts = 0;
+  int rejections_in_a_row = 0;
+  std::optional<PeerEstimate> accepted;
+  PeerEstimate last_attempt;
+  double last_attempt_clock = 0;
+  double accepted_since = 0;
+};
+
+// Where a peer's map sits in ours: directly accepted, or through relays that agree (`vias`
+// names the peers, empty when direct; the pose is then the mean of their chains).
+struct Placement {
+  Pose2D pose;
+  double acceptance = 0;  // V of the estimate that placed it (the lowest of the relays')
+  double since = 0;       // since when it has been placed (s)
+  std::vector<std::string> vias;
+};
+
 struct Peer {
   std::string id;
   std::shared_ptr<const OccupancyGrid> map;  // latest valid map
@@ -66,6 +95,7 @@ struct Peer {
   PeerEstimate last_attempt;
   double last_attempt_clock = 0;         // the same on the scheduling clock (see nextToEstimate)
   double accepted_since = 0;             // when the first transform was accepted
+  std::map<std::string, Relay> relays;   // this peer's map aligned to accepted peers', by their id
 };
 
 size_t knownCells(const OccupancyGrid& grid);
@@ -82,7 +112,7 @@ class PeerRegistry {
   // frame is new, so what we knew about it is dropped. Returns true when the peer is new or rejoined.
   bool updatePeer(const std::string& id, std::shared_ptr<const OccupancyGrid> map, uint32_t version, double now);
   // Drops all we know about a peer (its map could not be fused after all).
-  void forget(const std::string& id) { peers_.erase(id); }
+  void forget(const std::string& id);
   // The peer whose transform should be (re-)estimated next, given our map: never estimated
   // first, then the one whose maps grew the most, then one whose maps changed at all (content,
   // not only size) and whose estimate is older than refresh_period on the scheduling `clock`.
@@ -97,9 +127,21 @@ class PeerRegistry {
                      std::optional<double> clock = std::nullopt);
   // True when the transform in use was estimated on both maps as they are now: neither changed
   // since the last estimate, and that estimate was not a rejection (a transform kept from older
-  // maps through hysteresis is not current).
+  // maps through hysteresis is not current). A relayed peer's: every relay used and every via's.
   bool estimateIsCurrent(const Peer& peer, const MapSummary& own) const;
-  // Our map frame's tf parent under the convention above.
+  // The next relay to estimate, as {peer, via}, when no direct estimate is due: a peer we have
+  // not accepted, aligned to a peer we have (never tried first, then grown maps, then any change
+  // after refresh_period, as for direct estimates). None when relays are off or nothing needs work.
+  std::optional<std::pair<std::string, std::string>> nextRelayToEstimate(double clock) const;
+  // Records a relay estimate (the peer's map in via's) with the hysteresis of applyEstimate.
+  // Returns true when the relay changed.
+  bool applyRelayEstimate(const std::string& id, const std::string& via, const FusionResult& result, double now,
+                          std::optional<double> clock = std::nullopt);
+  // Where the peer's map sits in ours: its accepted transform, or else the mean of the largest
+  // group of relay chains (accepted relays through peers we accept) that agree with each other,
+  // when it has at least relay_min_vias of them. None when it is not placed.
+  std::optional<Placement> placementOf(const Peer& peer) const;
+  // Our map frame's tf parent under the convention above (direct accepts only).
   std::optional<std::string> parentOf() const;
 
   const std::map<std::string, Peer>& peers() const { return peers_; }

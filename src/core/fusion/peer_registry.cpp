@@ -1,8 +1,50 @@
 #include "mrslam/fusion/peer_registry.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace mrslam::fusion {
+namespace {
+
+// Relay chains of one peer weighed against each other: every subset of the first this many
+// (by via id) is tried, 2^8 at most.
+constexpr size_t kMaxChains = 8;
+
+// The share by which a map grew since it was last estimated (1 when it had nothing then).
+double growth(size_t now, size_t then) { return then ? static_cast<double>(now) / then - 1 : 1.0; }
+
+// The hysteresis every estimate goes through, direct or relayed: an acceptance clears the run of
+// rejections; the first is taken, a consistent one refines the one in use, one elsewhere
+// replaces it only when clearly better; a run of rejections on grown maps revokes it. Returns
+// true when `accepted` changed.
+bool applyHysteresis(std::optional<PeerEstimate>& accepted, int& rejections_in_a_row, double& accepted_since,
+                     const PeerEstimate& estimate, const PeerRegistryParams& params) {
+  if (!estimate.accepted) {
+    if (++rejections_in_a_row >= params.revoke_after_rejections && accepted) {
+      accepted.reset();  // the maps grew and no longer support it
+      return true;
+    }
+    return false;  // otherwise keep what we had
+  }
+  rejections_in_a_row = 0;
+  if (!accepted) {
+    accepted = estimate;
+    accepted_since = estimate.stamp;
+    return true;
+  }
+  const PeerEstimate& current = *accepted;
+  const bool consistent =
+      std::hypot(estimate.pose.x - current.pose.x, estimate.pose.y - current.pose.y) <= params.consistent_m &&
+      std::abs(Pose2D::normalizeAngle(estimate.pose.yaw - current.pose.yaw)) <= params.consistent_deg * M_PI / 180;
+  // Same place: the newer estimate saw more of both maps, take it. Elsewhere: only when clearly better.
+  if (consistent || estimate.acceptance > current.acceptance + params.switch_margin) {
+    accepted = estimate;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
 
 size_t knownCells(const OccupancyGrid& grid) {
   return static_cast<size_t>(std::count_if(grid.data.begin(), grid.data.end(), [](int8_t v) { return v >= 0; }));
@@ -40,6 +82,7 @@ bool PeerRegistry::updatePeer(const std::string& id, std::shared_ptr<const Occup
   if (!inserted && version < peer.version) {  // restarted: a new map frame
     peer = Peer{};
     rejoined = true;
+    for (auto& [other_id, other] : peers_) other.relays.erase(id);  // aligned to its old frame
   }
   if (rejoined) {
     peer.id = id;
@@ -52,10 +95,14 @@ bool PeerRegistry::updatePeer(const std::string& id, std::shared_ptr<const Occup
   return rejoined;
 }
 
+void PeerRegistry::forget(const std::string& id) {
+  peers_.erase(id);
+  for (auto& [other_id, other] : peers_) other.relays.erase(id);
+}
+
 std::optional<std::string> PeerRegistry::nextToEstimate(const MapSummary& own, double clock) const {
   std::optional<std::string> best, stale;
   double best_growth = 0, oldest = clock;
-  auto growth = [](size_t now, size_t then) { return then ? static_cast<double>(now) / then - 1 : 1.0; };
   for (const auto& [id, peer] : peers_) {
     if (!peer.map || own.known_cells < params_.min_known_cells || peer.summary.known_cells < params_.min_known_cells)
       continue;
@@ -71,6 +118,17 @@ std::optional<std::string> PeerRegistry::nextToEstimate(const MapSummary& own, d
 }
 
 bool PeerRegistry::estimateIsCurrent(const Peer& peer, const MapSummary& own) const {
+  const std::optional<Placement> placed = peer.accepted ? std::nullopt : placementOf(peer);
+  if (placed) {  // relayed: every relay used and every via's own transform describe today's maps
+    for (const std::string& via_id : placed->vias) {
+      const Peer& via = peers_.at(via_id);
+      const Relay& relay = peer.relays.at(via_id);
+      if (!relay.last_attempt.accepted || peer.summary != relay.at_estimate || via.summary != relay.via_at_estimate ||
+          !estimateIsCurrent(via, own))
+        return false;
+    }
+    return true;
+  }
   const bool unchanged = peer.attempts > 0 && peer.summary == peer.at_estimate && own == peer.own_at_estimate;
   return unchanged && (peer.last_attempt.accepted || !peer.accepted);
 }
@@ -86,29 +144,100 @@ bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& resu
   peer.own_at_estimate = own;
   PeerEstimate estimate{result.accepted, result.pose, result.verdict.acceptance, now, result.verdict.reason};
   peer.last_attempt = estimate;
-  if (!estimate.accepted) {
-    if (++peer.rejections_in_a_row >= params_.revoke_after_rejections && peer.accepted) {
-      peer.accepted.reset();  // the maps grew and no longer support it
-      return true;
+  return applyHysteresis(peer.accepted, peer.rejections_in_a_row, peer.accepted_since, estimate, params_);
+}
+
+std::optional<std::pair<std::string, std::string>> PeerRegistry::nextRelayToEstimate(double clock) const {
+  if (params_.relay_min_vias <= 0) return std::nullopt;
+  std::optional<std::pair<std::string, std::string>> best, stale;
+  double best_growth = 0, oldest = clock;
+  for (const auto& [id, peer] : peers_) {
+    if (peer.accepted || !peer.map || peer.summary.known_cells < params_.min_known_cells) continue;
+    for (const auto& [via_id, via] : peers_) {
+      if (via_id == id || !via.accepted || !via.map || via.summary.known_cells < params_.min_known_cells) continue;
+      const auto it = peer.relays.find(via_id);
+      if (it == peer.relays.end() || it->second.attempts == 0) return std::make_pair(id, via_id);
+      const Relay& relay = it->second;
+      const double grew = std::max(growth(peer.summary.known_cells, relay.at_estimate.known_cells),
+                                   growth(via.summary.known_cells, relay.via_at_estimate.known_cells));
+      if (grew >= params_.regrow_fraction && grew > best_growth) best = std::make_pair(id, via_id), best_growth = grew;
+      const bool changed = peer.summary != relay.at_estimate || via.summary != relay.via_at_estimate;
+      if (changed && clock - relay.last_attempt_clock >= params_.refresh_period && relay.last_attempt_clock < oldest)
+        stale = std::make_pair(id, via_id), oldest = relay.last_attempt_clock;
     }
-    return false;  // otherwise keep what we had
   }
-  peer.rejections_in_a_row = 0;
-  if (!peer.accepted) {
-    peer.accepted = estimate;
-    peer.accepted_since = now;
-    return true;
+  return best ? best : stale;
+}
+
+bool PeerRegistry::applyRelayEstimate(const std::string& id, const std::string& via, const FusionResult& result,
+                                      double now, std::optional<double> clock) {
+  auto it = peers_.find(id), via_it = peers_.find(via);
+  if (it == peers_.end() || via_it == peers_.end() || id == via) return false;
+  Relay& relay = it->second.relays[via];
+  ++relay.attempts;
+  relay.last_attempt_clock = clock.value_or(now);
+  relay.at_estimate = it->second.summary;
+  relay.via_at_estimate = via_it->second.summary;
+  relay.last_attempt = {result.accepted, result.pose, result.verdict.acceptance, now, result.verdict.reason};
+  return applyHysteresis(relay.accepted, relay.rejections_in_a_row, relay.accepted_since, relay.last_attempt,
+                         params_);
+}
+
+std::optional<Placement> PeerRegistry::placementOf(const Peer& peer) const {
+  if (peer.accepted) return Placement{peer.accepted->pose, peer.accepted->acceptance, peer.accepted_since, {}};
+  if (params_.relay_min_vias <= 0 || !peer.map) return std::nullopt;
+  struct Chain {
+    const std::string* via;
+    Pose2D pose;
+    double acceptance, since;
+  };
+  std::vector<Chain> chains;  // through peers we accept, ascending ids
+  for (const auto& [via_id, relay] : peer.relays) {
+    const auto via = peers_.find(via_id);
+    if (!relay.accepted || via == peers_.end() || !via->second.accepted) continue;
+    if (chains.size() == kMaxChains) break;
+    chains.push_back({&via_id, via->second.accepted->pose.compose(relay.accepted->pose), relay.accepted->acceptance,
+                      std::max(relay.accepted_since, via->second.accepted_since)});
   }
-  const PeerEstimate& current = *peer.accepted;
-  const bool consistent =
-      std::hypot(estimate.pose.x - current.pose.x, estimate.pose.y - current.pose.y) <= params_.consistent_m &&
-      std::abs(Pose2D::normalizeAngle(estimate.pose.yaw - current.pose.yaw)) <= params_.consistent_deg * M_PI / 180;
-  // Same place: the newer estimate saw more of both maps, take it. Elsewhere: only when clearly better.
-  if (consistent || estimate.acceptance > current.acceptance + params_.switch_margin) {
-    peer.accepted = estimate;
-    return true;
+  if (chains.size() < static_cast<size_t>(params_.relay_min_vias)) return std::nullopt;
+  // Chains agree when they put the peer map's centre and heading close together.
+  const OccupancyGrid& map = *peer.map;
+  double cx, cy;
+  map.origin.apply(map.width * map.resolution / 2, map.height * map.resolution / 2, cx, cy);
+  auto agree = [&](const Pose2D& p, const Pose2D& q) {
+    double px, py, qx, qy;
+    p.apply(cx, cy, px, py);
+    q.apply(cx, cy, qx, qy);
+    return std::hypot(px - qx, py - qy) <= params_.relay_agree_m &&
+           std::abs(Pose2D::normalizeAngle(p.yaw - q.yaw)) <= params_.relay_agree_deg * M_PI / 180;
+  };
+  // The largest group of chains that agree pairwise (a team has a handful of peers: every subset).
+  uint32_t best = 0;
+  for (uint32_t group = 1; group < (1u << chains.size()); ++group) {
+    if (__builtin_popcount(group) <= __builtin_popcount(best)) continue;
+    bool consistent = true;
+    for (size_t i = 0; i < chains.size() && consistent; ++i)
+      for (size_t j = i + 1; j < chains.size() && consistent; ++j)
+        if ((group >> i & 1) && (group >> j & 1)) consistent = agree(chains[i].pose, chains[j].pose);
+    if (consistent) best = group;
   }
-  return false;
+  if (__builtin_popcount(best) < params_.relay_min_vias) return std::nullopt;
+  Placement placed{{}, 1.0, 0.0, {}};
+  double sin_sum = 0, cos_sum = 0;
+  for (size_t i = 0; i < chains.size(); ++i) {
+    if (!(best >> i & 1)) continue;
+    placed.pose.x += chains[i].pose.x;
+    placed.pose.y += chains[i].pose.y;
+    sin_sum += std::sin(chains[i].pose.yaw);
+    cos_sum += std::cos(chains[i].pose.yaw);
+    placed.acceptance = std::min(placed.acceptance, chains[i].acceptance);
+    placed.since = std::max(placed.since, chains[i].since);
+    placed.vias.push_back(*chains[i].via);
+  }
+  placed.pose.x /= placed.vias.size();
+  placed.pose.y /= placed.vias.size();
+  placed.pose.yaw = std::atan2(sin_sum, cos_sum);
+  return placed;
 }
 
 std::optional<std::string> PeerRegistry::parentOf() const {
