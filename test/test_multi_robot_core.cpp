@@ -4,6 +4,7 @@
 #include <octomap/OcTree.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include "mrslam/cell_codec.h"
@@ -186,6 +187,20 @@ TEST(PeerQuarantine, APeerRefusedSeveralTimesInARowIsNotHeardForAWhile) {
   EXPECT_EQ(q.quarantined(10.0), std::vector<std::string>{"robot9"});
   EXPECT_FALSE(q.isQuarantined("robot9", 64.0)) << "heard again after the period";
   EXPECT_FALSE(q.reportBad("robot9", 65.0)) << "...from scratch";
+}
+
+TEST(PeerRegistry, ParametersOutOfRangeAreNamedWithTheirValue) {
+  EXPECT_EQ(peerRegistryParamsProblem(PeerRegistryParams{}), "") << "the defaults are usable";
+  auto problem = [](auto change) {
+    PeerRegistryParams p;
+    change(p);
+    return peerRegistryParamsProblem(p);
+  };
+  EXPECT_EQ(problem([](PeerRegistryParams& p) { p.relay_agree_m = -0.1; }).rfind("relay_agree_m must be > 0", 0), 0u);
+  EXPECT_EQ(problem([](PeerRegistryParams& p) { p.relay_min_vias = 9; }).rfind("relay_min_vias must be in [0, 8]", 0), 0u);
+  EXPECT_EQ(problem([](PeerRegistryParams& p) { p.refresh_period = std::nan(""); }).rfind("refresh_period", 0), 0u);
+  EXPECT_EQ(problem([](PeerRegistryParams& p) { p.revoke_after_rejections = 0; }).rfind("revoke_after_rejections", 0), 0u);
+  EXPECT_EQ(problem([](PeerRegistryParams& p) { p.relay_min_vias = 0; }), "") << "0 switches relays off";
 }
 
 TEST(PeerRegistry, RobotIdsMustBeTfPrefixes) {

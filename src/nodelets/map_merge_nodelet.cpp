@@ -94,6 +94,11 @@ class MapMergeNodelet : public nodelet::Nodelet {
     config.param("relay_agree_m", registry_params.relay_agree_m, registry_params.relay_agree_m);
     config.param("relay_agree_deg", registry_params.relay_agree_deg, registry_params.relay_agree_deg);
     registry_ = std::make_unique<fusion::PeerRegistry>(robot_id_, registry_params);
+    const std::string registry_problem = fusion::peerRegistryParamsProblem(registry_params);
+    if (!registry_problem.empty()) {  // as a refused fusion_config below: no merging on values nobody meant
+      config_problem_ = "merge parameters refused: " + registry_problem;
+      NODELET_ERROR("%s; this robot merges no peer maps until the parameter is fixed", config_problem_.c_str());
+    }
     fusion::PeerQuarantineParams quarantine_params;
     config.param("bad_maps_to_quarantine", quarantine_params.bad_maps_in_a_row, quarantine_params.bad_maps_in_a_row);
     config.param("quarantine_period", quarantine_params.period_s, quarantine_params.period_s);
@@ -670,7 +675,8 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::atomic<bool> stop_{false};
   std::thread worker_;
   std::string robot_id_, map_frame_, octomap_path_, last_problem_;
-  std::string config_problem_;  // set once in onInit (before any callback) when fusion_config is refused
+  std::string config_problem_;  // set once in onInit (before any callback) when fusion_config or a
+                                // merge parameter is refused
   std::vector<std::string> share_topics_;  // resolved: plain and compressed
   double max_peer_cells_ = 64e6, merged_map_period_ = 2.0;
   fusion::FusionParams fusion_params_;

@@ -42,6 +42,10 @@ struct PeerRegistryParams {
   double relay_agree_deg = 1.0;  // ...and its heading this close
 };
 
+// Why these parameters cannot be used (empty when they can): the first one out of its range,
+// named as in config/merge.yaml, with its value.
+std::string peerRegistryParamsProblem(const PeerRegistryParams& params);
+
 struct PeerEstimate {
   bool accepted = false;
   Pose2D pose;              // the peer's map frame in our map frame

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace mrslam::fusion {
 namespace {
@@ -45,6 +46,31 @@ bool applyHysteresis(std::optional<PeerEstimate>& accepted, int& rejections_in_a
 }
 
 }  // namespace
+
+std::string peerRegistryParamsProblem(const PeerRegistryParams& p) {
+  struct Check {
+    const char* key;
+    double value;
+    bool ok;
+    const char* range;
+  };
+  const Check checks[] = {
+      {"regrow_fraction", p.regrow_fraction, p.regrow_fraction > 0, "> 0"},
+      {"consistent_m", p.consistent_m, p.consistent_m >= 0, ">= 0"},
+      {"consistent_deg", p.consistent_deg, p.consistent_deg >= 0 && p.consistent_deg <= 180, "in [0, 180]"},
+      {"switch_margin", p.switch_margin, p.switch_margin >= 0, ">= 0"},
+      {"refresh_period", p.refresh_period, p.refresh_period > 0, "> 0"},
+      {"revoke_after_rejections", static_cast<double>(p.revoke_after_rejections), p.revoke_after_rejections >= 1, ">= 1"},
+      {"relay_min_vias", static_cast<double>(p.relay_min_vias),
+       p.relay_min_vias >= 0 && p.relay_min_vias <= static_cast<int>(kMaxChains), "in [0, 8]"},
+      {"relay_agree_m", p.relay_agree_m, p.relay_agree_m > 0, "> 0"},
+      {"relay_agree_deg", p.relay_agree_deg, p.relay_agree_deg > 0 && p.relay_agree_deg <= 180, "in (0, 180]"},
+  };
+  for (const Check& c : checks)
+    if (!c.ok)  // NaN fails every range too
+      return std::string(c.key) + " must be " + c.range + " (got " + std::to_string(c.value) + ")";
+  return "";
+}
 
 size_t knownCells(const OccupancyGrid& grid) {
   return static_cast<size_t>(std::count_if(grid.data.begin(), grid.data.end(), [](int8_t v) { return v >= 0; }));
