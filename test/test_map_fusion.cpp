@@ -95,7 +95,7 @@ TEST(MapFusion, AlignsMapsOfTwoTimeWindowsOfARealLog) {
 }
 
 // Runs every estimate the registry asks for, direct ones first, as the merge nodelet's worker does.
-void settle(PeerRegistry& registry, const OccupancyGrid& own, const FusionParams& params, double clock) {
+static void settle(PeerRegistry& registry, const OccupancyGrid& own, const FusionParams& params, double clock) {
   const MapSummary summary = summarize(own);
   for (int step = 0; step < 100; ++step) {
     if (const auto next = registry.nextToEstimate(summary, clock)) {
@@ -146,27 +146,29 @@ TEST(PeerRelay, AMapThatDoesNotOverlapOursIsPlacedWhereTwoPeersThatOverlapBothAg
   EXPECT_FALSE(registry.nextRelayToEstimate(3.0)) << "nothing changed";
 }
 
+// A fusion result as the registry sees it, for the bookkeeping tests.
+static FusionResult relayResult(bool accepted, Pose2D pose) {
+  FusionResult r;
+  r.accepted = r.verdict.accepted = accepted;
+  r.pose = pose;
+  r.verdict.acceptance = 0.98;
+  r.verdict.reason = accepted ? "" : "test rejection";
+  return r;
+}
+
 TEST(PeerRelay, ARelayLastsOnlyAsLongAsTheTransformItGoesThrough) {
   const auto map = std::make_shared<const OccupancyGrid>(loadMap(test::referenceMap("intel")));
   const MapSummary own = summarize(*map);
-  auto result = [](bool accepted, Pose2D pose) {
-    FusionResult r;
-    r.accepted = r.verdict.accepted = accepted;
-    r.pose = pose;
-    r.verdict.acceptance = 0.98;
-    r.verdict.reason = accepted ? "" : "test rejection";
-    return r;
-  };
   PeerRegistryParams params;
   params.relay_min_vias = 1;  // one chain places a peer: the bookkeeping of a single relay
   PeerRegistry registry("robot1", params);
   for (const char* id : {"robot2", "robot3", "robot4"}) registry.updatePeer(id, map, 1, 0.0);
-  registry.applyEstimate("robot2", result(true, {1, 0, M_PI / 2}), own, 1.0);
-  registry.applyEstimate("robot3", result(false, {}), own, 1.0);
-  registry.applyEstimate("robot4", result(true, {0, 5, 0}), own, 1.0);
+  registry.applyEstimate("robot2", relayResult(true, {1, 0, M_PI / 2}), own, 1.0);
+  registry.applyEstimate("robot3", relayResult(false, {}), own, 1.0);
+  registry.applyEstimate("robot4", relayResult(true, {0, 5, 0}), own, 1.0);
   // Never tried first, through the accepted peers in id order; none through an unaccepted one.
   EXPECT_EQ(registry.nextRelayToEstimate(2.0), std::make_pair(std::string("robot3"), std::string("robot2")));
-  EXPECT_TRUE(registry.applyRelayEstimate("robot3", "robot2", result(true, {2, 0, 0}), 2.0));
+  EXPECT_TRUE(registry.applyRelayEstimate("robot3", "robot2", relayResult(true, {2, 0, 0}), 2.0));
   const auto placed = registry.placementOf(registry.peers().at("robot3"));
   ASSERT_TRUE(placed);
   EXPECT_NEAR(placed->pose.x, 1.0, 1e-9);  // robot2's frame turned 90 degrees: (2, 0) lands at (1, 2)
@@ -176,17 +178,17 @@ TEST(PeerRelay, ARelayLastsOnlyAsLongAsTheTransformItGoesThrough) {
   EXPECT_FALSE(registry.parentOf()) << "the tf tree holds direct accepts only";
 
   // robot2's transform revoked: robot3 is no longer placed, and both are tried through robot4.
-  for (int i = 0; i < params.revoke_after_rejections; ++i) registry.applyEstimate("robot2", result(false, {}), own, 4.0);
+  for (int i = 0; i < params.revoke_after_rejections; ++i) registry.applyEstimate("robot2", relayResult(false, {}), own, 4.0);
   ASSERT_FALSE(registry.peers().at("robot2").accepted);
   EXPECT_FALSE(registry.placementOf(registry.peers().at("robot3")));
   EXPECT_EQ(registry.nextRelayToEstimate(5.0), std::make_pair(std::string("robot2"), std::string("robot4")));
-  registry.applyRelayEstimate("robot2", "robot4", result(false, {}), 5.0);
+  registry.applyRelayEstimate("robot2", "robot4", relayResult(false, {}), 5.0);
   EXPECT_EQ(registry.nextRelayToEstimate(5.0), std::make_pair(std::string("robot3"), std::string("robot4")));
 
   // A direct accept wins over any relay; a restart of the via forgets the relays through it.
-  registry.applyEstimate("robot2", result(true, {1, 0, M_PI / 2}), own, 6.0);
+  registry.applyEstimate("robot2", relayResult(true, {1, 0, M_PI / 2}), own, 6.0);
   ASSERT_TRUE(registry.placementOf(registry.peers().at("robot3")));
-  registry.applyEstimate("robot3", result(true, {7, 7, 0}), own, 7.0);
+  registry.applyEstimate("robot3", relayResult(true, {7, 7, 0}), own, 7.0);
   EXPECT_TRUE(registry.placementOf(registry.peers().at("robot3"))->vias.empty());
   EXPECT_NEAR(registry.placementOf(registry.peers().at("robot3"))->pose.x, 7.0, 1e-9);
   registry.updatePeer("robot2", map, 0, 8.0);  // restarted: a new map frame
@@ -196,31 +198,24 @@ TEST(PeerRelay, ARelayLastsOnlyAsLongAsTheTransformItGoesThrough) {
   params.relay_min_vias = 0;
   PeerRegistry off("robot1", params);
   for (const char* id : {"robot2", "robot3"}) off.updatePeer(id, map, 1, 0.0);
-  off.applyEstimate("robot2", result(true, {}), own, 1.0);
-  off.applyEstimate("robot3", result(false, {}), own, 1.0);
+  off.applyEstimate("robot2", relayResult(true, {}), own, 1.0);
+  off.applyEstimate("robot3", relayResult(false, {}), own, 1.0);
   EXPECT_FALSE(off.nextRelayToEstimate(2.0));
 }
 
 TEST(PeerRelay, ChainsThatDisagreeDoNotPlaceAPeerAndTheAgreeingOnesArePlacedAtTheirMean) {
   const auto map = std::make_shared<const OccupancyGrid>(loadMap(test::referenceMap("intel")));
   const MapSummary own = summarize(*map);
-  auto result = [](bool accepted, Pose2D pose) {
-    FusionResult r;
-    r.accepted = r.verdict.accepted = accepted;
-    r.pose = pose;
-    r.verdict.acceptance = 0.98;
-    return r;
-  };
   PeerRegistry registry("robot1");  // the defaults: two chains within 0.15 m and 1 degree
   for (const char* id : {"robot2", "robot3", "robot4", "robot5"}) registry.updatePeer(id, map, 1, 0.0);
-  for (const char* id : {"robot2", "robot3", "robot4"}) registry.applyEstimate(id, result(true, {}), own, 1.0);
-  registry.applyEstimate("robot5", result(false, {}), own, 1.0);
+  for (const char* id : {"robot2", "robot3", "robot4"}) registry.applyEstimate(id, relayResult(true, {}), own, 1.0);
+  registry.applyEstimate("robot5", relayResult(false, {}), own, 1.0);
   // Through robot2 and robot3: 0.4 m apart at the map's centre, so neither places robot5.
-  registry.applyRelayEstimate("robot5", "robot2", result(true, {10.0, 0, 0}), 2.0);
-  registry.applyRelayEstimate("robot5", "robot3", result(true, {10.4, 0, 0}), 2.0);
+  registry.applyRelayEstimate("robot5", "robot2", relayResult(true, {10.0, 0, 0}), 2.0);
+  registry.applyRelayEstimate("robot5", "robot3", relayResult(true, {10.4, 0, 0}), 2.0);
   EXPECT_FALSE(registry.placementOf(registry.peers().at("robot5")));
   // robot4's chain agrees with robot3's (0.1 m): placed at their mean, robot2's left out.
-  registry.applyRelayEstimate("robot5", "robot4", result(true, {10.5, 0, 0}), 2.0);
+  registry.applyRelayEstimate("robot5", "robot4", relayResult(true, {10.5, 0, 0}), 2.0);
   const auto placed = registry.placementOf(registry.peers().at("robot5"));
   ASSERT_TRUE(placed);
   EXPECT_EQ(placed->vias, (std::vector<std::string>{"robot3", "robot4"}));
@@ -231,12 +226,12 @@ TEST(PeerRelay, ChainsThatDisagreeDoNotPlaceAPeerAndTheAgreeingOnesArePlacedAtTh
   heading_only.relay_agree_m = 1e3;
   PeerRegistry headings("robot1", heading_only);
   for (const char* id : {"robot2", "robot3", "robot5"}) headings.updatePeer(id, map, 1, 0.0);
-  for (const char* id : {"robot2", "robot3"}) headings.applyEstimate(id, result(true, {}), own, 1.0);
-  headings.applyRelayEstimate("robot5", "robot2", result(true, {10, 0, 0}), 2.0);
-  headings.applyRelayEstimate("robot5", "robot3", result(true, {10, 0, 0.8 * kDeg}), 2.0);
+  for (const char* id : {"robot2", "robot3"}) headings.applyEstimate(id, relayResult(true, {}), own, 1.0);
+  headings.applyRelayEstimate("robot5", "robot2", relayResult(true, {10, 0, 0}), 2.0);
+  headings.applyRelayEstimate("robot5", "robot3", relayResult(true, {10, 0, 0.8 * kDeg}), 2.0);
   ASSERT_TRUE(headings.placementOf(headings.peers().at("robot5")));
   EXPECT_NEAR(headings.placementOf(headings.peers().at("robot5"))->pose.yaw, 0.4 * kDeg, 1e-9);
-  headings.applyRelayEstimate("robot5", "robot3", result(true, {10, 0, 2.0 * kDeg}), 3.0);
+  headings.applyRelayEstimate("robot5", "robot3", relayResult(true, {10, 0, 2.0 * kDeg}), 3.0);
   EXPECT_FALSE(headings.placementOf(headings.peers().at("robot5")));
 }
 
