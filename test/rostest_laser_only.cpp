@@ -5,7 +5,8 @@
 // one grid, the share of wall hits in cells other beams pass through. The same scans cast all
 // from one pose (a robot that believed it stood still) must do far worse, which proves the laser
 // moved and that the bound can fail. Also checks: nearly every scan used, the grid published,
-// and tf map -> laser following the published pose.
+// and tf map -> laser following the published pose. Robot name, base frame and the wait are
+// the test's parameters (test/laser_only.test passes the launch's).
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
@@ -17,6 +18,7 @@
 
 #include <map>
 #include <mutex>
+#include <string>
 
 #include "mrslam/bench/map_consistency.h"
 #include "ros_conversions.h"
@@ -47,21 +49,26 @@ struct Recorder {
 TEST(LaserOnly, TracksALaserCarriedThroughRoomsFromItsScansAlone) {
   ros::NodeHandle nh, pnh("~");
   int expected_scans = 0;
-  double max_conflict = 0, max_share_of_still = 0;
+  double max_conflict = 0, max_share_of_still = 0, wait_s = 0;
+  std::string robot, base_frame;
+  pnh.param<std::string>("robot", robot, "ccny");  // robot.launch's namespace and frame prefix
+  pnh.param<std::string>("base_frame", base_frame, "laser");
+  pnh.param("wait_s", wait_s, 100.0);  // wall time for the bag to play through
   pnh.param("expected_scans", expected_scans, 360);
   pnh.param("max_conflict", max_conflict, 0.2);
   pnh.param("max_share_of_still", max_share_of_still, 0.25);
   Recorder rec;
-  auto scan_sub = nh.subscribe("/ccny/scan", 1000, &Recorder::onScan, &rec);
-  auto path_sub = nh.subscribe("/ccny/trajectory", 1, &Recorder::onTrajectory, &rec);
-  auto map_sub = nh.subscribe("/ccny/map", 1, &Recorder::onMap, &rec);
+  const std::string ns = "/" + robot + "/", map_frame = robot + "/map";
+  auto scan_sub = nh.subscribe(ns + "scan", 1000, &Recorder::onScan, &rec);
+  auto path_sub = nh.subscribe(ns + "trajectory", 1, &Recorder::onTrajectory, &rec);
+  auto map_sub = nh.subscribe(ns + "map", 1, &Recorder::onMap, &rec);
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
   ros::AsyncSpinner spinner(2);
   spinner.start();
 
   // Wait (wall time) for the bag to be played through and the last poses to be published.
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(100.0);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wait_s);
   while (ros::WallTime::now() < deadline) {
     ros::WallDuration(0.2).sleep();
     std::lock_guard<std::mutex> lock(rec.mutex);
@@ -71,9 +78,9 @@ TEST(LaserOnly, TracksALaserCarriedThroughRoomsFromItsScansAlone) {
   }
   ros::WallDuration(2.0).sleep();  // the trajectory is republished at most once a second
   std::lock_guard<std::mutex> lock(rec.mutex);
-  ASSERT_TRUE(rec.map) << "no grid on /ccny/map";
-  ASSERT_TRUE(rec.trajectory) << "no trajectory on /ccny/trajectory";
-  EXPECT_EQ(rec.map->header.frame_id, "ccny/map");
+  ASSERT_TRUE(rec.map) << "no grid on " << ns << "map";
+  ASSERT_TRUE(rec.trajectory) << "no trajectory on " << ns << "trajectory";
+  EXPECT_EQ(rec.map->header.frame_id, map_frame);
   const size_t known = std::count_if(rec.map->data.begin(), rec.map->data.end(), [](int8_t v) { return v >= 0; });
   EXPECT_GT(known, 5000u) << "the map has hardly any known cells";
   EXPECT_GE(static_cast<int>(rec.scans.size()), expected_scans * 95 / 100) << "the bag's scans did not all arrive";
@@ -100,8 +107,8 @@ TEST(LaserOnly, TracksALaserCarriedThroughRoomsFromItsScansAlone) {
 
   // tf map -> laser is the newest pose (no odometry frame in between).
   std::string error;
-  ASSERT_TRUE(buffer.canTransform("ccny/map", "laser", ros::Time(0), &error)) << error;
-  const auto t = buffer.lookupTransform("ccny/map", "laser", ros::Time(0)).transform;
+  ASSERT_TRUE(buffer.canTransform(map_frame, base_frame, ros::Time(0), &error)) << error;
+  const auto t = buffer.lookupTransform(map_frame, base_frame, ros::Time(0)).transform;
   const Pose2D last = mrslam::nodelets::poseFromMsg(rec.trajectory->poses.back().pose);
   EXPECT_NEAR(t.translation.x, last.x, 0.02);
   EXPECT_NEAR(t.translation.y, last.y, 0.02);
