@@ -203,6 +203,29 @@ TEST(PeerRelay, ARelayLastsOnlyAsLongAsTheTransformItGoesThrough) {
   EXPECT_FALSE(off.nextRelayToEstimate(2.0));
 }
 
+TEST(PeerRelay, APeerIsRelayedThroughAtMostEightViasHoweverManyWeAccept) {
+  // Each relay is a fusion: with a large team, the work per peer stays bounded.
+  const auto map = std::make_shared<const OccupancyGrid>(loadMap(test::referenceMap("intel")));
+  const MapSummary own = summarize(*map);
+  PeerRegistry registry("robot00");
+  for (int k = 1; k <= 10; ++k) {
+    const std::string id = "robot" + std::string(k < 10 ? "0" : "") + std::to_string(k);
+    registry.updatePeer(id, map, 1, 0.0);
+    registry.applyEstimate(id, relayResult(true, {}), own, 1.0);
+  }
+  registry.updatePeer("robot11", map, 1, 0.0);
+  registry.applyEstimate("robot11", relayResult(false, {}), own, 1.0);
+  std::vector<std::string> vias;
+  while (const auto next = registry.nextRelayToEstimate(2.0)) {
+    ASSERT_EQ(next->first, "robot11");
+    vias.push_back(next->second);
+    registry.applyRelayEstimate(next->first, next->second, relayResult(false, {}), 2.0);
+    ASSERT_LE(vias.size(), 10u);
+  }
+  EXPECT_EQ(vias.size(), 8u);
+  EXPECT_EQ(vias.back(), "robot08");
+}
+
 TEST(PeerRelay, ChainsThatDisagreeDoNotPlaceAPeerAndTheAgreeingOnesArePlacedAtTheirMean) {
   const auto map = std::make_shared<const OccupancyGrid>(loadMap(test::referenceMap("intel")));
   const MapSummary own = summarize(*map);

@@ -179,8 +179,10 @@ std::optional<std::pair<std::string, std::string>> PeerRegistry::nextRelayToEsti
   double best_growth = 0, oldest = clock;
   for (const auto& [id, peer] : peers_) {
     if (peer.accepted || !peer.map || peer.summary.known_cells < params_.min_known_cells) continue;
+    size_t vias = 0;  // placementOf weighs the chains through the first kMaxChains: no work beyond
     for (const auto& [via_id, via] : peers_) {
       if (via_id == id || !via.accepted || !via.map || via.summary.known_cells < params_.min_known_cells) continue;
+      if (++vias > kMaxChains) break;
       const auto it = peer.relays.find(via_id);
       if (it == peer.relays.end() || it->second.attempts == 0) return std::make_pair(id, via_id);
       const Relay& relay = it->second;
