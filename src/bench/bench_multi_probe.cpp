@@ -39,6 +39,13 @@ namespace {
 mrslam::Pose2D toPose(const geometry_msgs::Pose& p) {
   return {p.position.x, p.position.y, tf2::getYaw(p.orientation)};
 }
+// merge_status names a relayed pair's vias separated by spaces: one field here, "direct" when none.
+std::string viaField(std::string via) {
+  if (via.empty()) return "direct";
+  std::replace(via.begin(), via.end(), ' ', ',');
+  return via;
+}
+
 struct PairStatus {
   bool accepted = false;
   double delay = -1;  // simulated s from the peer's first map to the accepted transform
@@ -47,6 +54,7 @@ struct PairStatus {
   bool stale = false;    // the merger has heard nothing from the peer for stale_after
   double link_silent = -1;  // s since data last arrived on the merger's connection to the peer (-1: none open)
   std::string attempts, why;  // when not accepted: how often the merger tried, and its last reason
+  std::string via;            // the peers a relayed pair is placed through (empty: direct)
   // What led to the first accept: the simulated s from the peer's first map to the merger's
   // first try, the merger's tries up to the accept, and the last reason it rejected before.
   double first_try = -1;
@@ -127,6 +135,7 @@ int main(int argc, char** argv) {
             if (p.accepted) {
               p.delay = std::stod(v["accepted_since"]) - p.first_map_time;
               p.pose = {std::stod(v["x"]), std::stod(v["y"]), std::stod(v["yaw"])};
+              p.via = v["via"];
               p.current = v["estimate_current"] == "True";
             }
           }
@@ -174,7 +183,7 @@ int main(int argc, char** argv) {
                   v["pose lag behind its scan's arrival, most ever (wall s)"].c_str(), v["scans that waited for the gyro"].c_str(),
                   v["scans the gyro did not cover"].c_str());
   }
-  int accepted = 0, total = 0, correct = 0, unchecked = 0;
+  int accepted = 0, total = 0, correct = 0, unchecked = 0, relayed = 0;
   std::vector<double> delays;
   for (const auto& [key, value] : pairs) {
     if (key.second.rfind("robot", 0) != 0) continue;
@@ -201,10 +210,11 @@ int main(int argc, char** argv) {
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
     std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d link_silent_s=%.1f deg=%.2f cells=%.2f "
-                "truth_bar_cells=%.2f first_map_s=%.1f first_try_s=%.1f tries=%d before=%s\n", key.first,
+                "truth_bar_cells=%.2f first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n", key.first,
                 key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.link_silent, e.yaw_deg, cells,
-                truth_bar, value.first_map_time, value.first_try,
-                value.tries_to_accept, value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
+                truth_bar, value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
+                value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
+    relayed += !value.via.empty();
     if (right) {
       ++correct;
     } else {
@@ -229,7 +239,7 @@ int main(int argc, char** argv) {
                 most / sim / 1000, peakRate(share_log, 10.0) / 1000);
   }
   std::printf("pairs_seen=%d pairs_accepted=%d of_possible=%d\n", total, accepted, robots * (robots - 1));
-  std::printf("pairs_correct=%d pairs_unchecked=%d\n", correct, unchecked);
+  std::printf("pairs_correct=%d pairs_unchecked=%d pairs_relayed=%d\n", correct, unchecked, relayed);
   if (!delays.empty())
     std::printf("first_map_to_accept_s median=%.1f max=%.1f\n", delays[delays.size() / 2], delays.back());
   return 0;
