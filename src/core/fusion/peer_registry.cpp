@@ -14,6 +14,29 @@ constexpr size_t kMaxChains = 8;
 // The share by which a map grew since it was last estimated (1 when it had nothing then).
 double growth(size_t now, size_t then) { return then ? static_cast<double>(now) / then - 1 : 1.0; }
 
+// The next estimate among candidates that were each estimated before on two maps (a direct
+// estimate: the peer's and ours; a relay: the peer's and the via's): the one whose maps grew
+// the most, by regrow_fraction at least; else the one whose maps changed at all and whose last
+// estimate is the oldest, older than refresh_period on the scheduling clock.
+template <typename Key>
+class NextEstimate {
+ public:
+  NextEstimate(const PeerRegistryParams& params, double clock) : params_(params), clock_(clock), oldest_(clock) {}
+  void consider(const Key& key, const MapSummary& a, const MapSummary& a_then, const MapSummary& b,
+                const MapSummary& b_then, double last_clock) {
+    const double grew = std::max(growth(a.known_cells, a_then.known_cells), growth(b.known_cells, b_then.known_cells));
+    if (grew >= params_.regrow_fraction && grew > best_growth_) best_ = key, best_growth_ = grew;
+    const bool changed = a != a_then || b != b_then;
+    if (changed && clock_ - last_clock >= params_.refresh_period && last_clock < oldest_) stale_ = key, oldest_ = last_clock;
+  }
+  std::optional<Key> pick() const { return best_ ? best_ : stale_; }
+
+ private:
+  const PeerRegistryParams& params_;
+  double clock_, oldest_, best_growth_ = 0;
+  std::optional<Key> best_, stale_;
+};
+
 // The hysteresis every estimate goes through, direct or relayed: an acceptance clears the run of
 // rejections; the first is taken, a consistent one refines the one in use, one elsewhere
 // replaces it only when clearly better; a run of rejections on grown maps revokes it. Returns
@@ -127,20 +150,14 @@ void PeerRegistry::forget(const std::string& id) {
 }
 
 std::optional<std::string> PeerRegistry::nextToEstimate(const MapSummary& own, double clock) const {
-  std::optional<std::string> best, stale;
-  double best_growth = 0, oldest = clock;
+  NextEstimate<std::string> next(params_, clock);
   for (const auto& [id, peer] : peers_) {
     if (!peer.map || own.known_cells < params_.min_known_cells || peer.summary.known_cells < params_.min_known_cells)
       continue;
     if (peer.attempts == 0) return id;
-    const double grew = std::max(growth(peer.summary.known_cells, peer.at_estimate.known_cells),
-                                 growth(own.known_cells, peer.own_at_estimate.known_cells));
-    if (grew >= params_.regrow_fraction && grew > best_growth) best = id, best_growth = grew;
-    const bool changed = peer.summary != peer.at_estimate || own != peer.own_at_estimate;
-    if (changed && clock - peer.last_attempt_clock >= params_.refresh_period && peer.last_attempt_clock < oldest)
-      stale = id, oldest = peer.last_attempt_clock;
+    next.consider(id, peer.summary, peer.at_estimate, own, peer.own_at_estimate, peer.last_attempt_clock);
   }
-  return best ? best : stale;
+  return next.pick();
 }
 
 bool PeerRegistry::estimateIsCurrent(const Peer& peer, const MapSummary& own) const {
@@ -175,8 +192,7 @@ bool PeerRegistry::applyEstimate(const std::string& id, const FusionResult& resu
 
 std::optional<std::pair<std::string, std::string>> PeerRegistry::nextRelayToEstimate(double clock) const {
   if (params_.relay_min_vias <= 0) return std::nullopt;
-  std::optional<std::pair<std::string, std::string>> best, stale;
-  double best_growth = 0, oldest = clock;
+  NextEstimate<std::pair<std::string, std::string>> next(params_, clock);
   for (const auto& [id, peer] : peers_) {
     if (peer.accepted || !peer.map || peer.summary.known_cells < params_.min_known_cells) continue;
     size_t vias = 0;  // placementOf weighs the chains through the first kMaxChains: no work beyond
@@ -186,15 +202,11 @@ std::optional<std::pair<std::string, std::string>> PeerRegistry::nextRelayToEsti
       const auto it = peer.relays.find(via_id);
       if (it == peer.relays.end() || it->second.attempts == 0) return std::make_pair(id, via_id);
       const Relay& relay = it->second;
-      const double grew = std::max(growth(peer.summary.known_cells, relay.at_estimate.known_cells),
-                                   growth(via.summary.known_cells, relay.via_at_estimate.known_cells));
-      if (grew >= params_.regrow_fraction && grew > best_growth) best = std::make_pair(id, via_id), best_growth = grew;
-      const bool changed = peer.summary != relay.at_estimate || via.summary != relay.via_at_estimate;
-      if (changed && clock - relay.last_attempt_clock >= params_.refresh_period && relay.last_attempt_clock < oldest)
-        stale = std::make_pair(id, via_id), oldest = relay.last_attempt_clock;
+      next.consider(std::make_pair(id, via_id), peer.summary, relay.at_estimate, via.summary, relay.via_at_estimate,
+                    relay.last_attempt_clock);
     }
   }
-  return best ? best : stale;
+  return next.pick();
 }
 
 bool PeerRegistry::applyRelayEstimate(const std::string& id, const std::string& via, const FusionResult& result,
