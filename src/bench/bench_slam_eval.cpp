@@ -1,7 +1,11 @@
-// mrslam_bench_slam_eval LOG [LABEL=TRAJECTORY ...]: accuracy of trajectories against the
-// reference poses of a corrected CARMEN log (Kümmerle et al. 2009 relations), beside the raw
-// wheel odometry chained from the log's ODOM lines. Prints markdown table rows:
+// mrslam_bench_slam_eval [--scan-relations N] LOG [LABEL=TRAJECTORY ...]: accuracy of
+// trajectories against the reference poses of a corrected CARMEN log (Kümmerle et al. 2009
+// relations), beside the raw wheel odometry chained from the log's ODOM lines. Prints markdown
+// table rows:
 //   | log | method | 1-step m | 1-step deg | 10-step m | 10-step deg | global m | global deg | conflict % |
+// With --scan-relations N, two more columns: the error against up to N relations between scans
+// of different passes that the scans themselves fix (bench/scan_relations.h), and a row for the
+// reference poses against them; the relations' count goes to stderr.
 // Trajectory lines are matched to the log's scans by scan index where they carry one, else by
 // time stamp, in order.
 //
@@ -10,12 +14,14 @@
 // It needs no reference: a row for the reference poses themselves shows where the reference
 // stands (the reference poses carry errors of their own).
 #include <algorithm>
+#include <cstdlib>
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
 #include <string>
 
 #include "mrslam/bench/map_consistency.h"
+#include "mrslam/bench/scan_relations.h"
 #include "mrslam/bench/trajectory_metrics.h"
 #include "mrslam/slam/robot_log.h"
 
@@ -37,8 +43,29 @@ double conflictPercent(const mrslam::slam::RobotLog& log, const std::vector<size
   return 100.0 * bench::mapConsistency(taken, poses, log.laser_in_base).conflict;
 }
 
+// The relations between scans of `trajectory_scans` (log indices, in trajectory order),
+// re-indexed into the trajectory; relations with a scan the trajectory lacks are left out.
+std::vector<bench::Relation> relationsWithin(const std::vector<bench::Relation>& relations, const std::vector<size_t>& trajectory_scans) {
+  std::vector<long> position;
+  for (size_t k = 0; k < trajectory_scans.size(); ++k) {
+    if (trajectory_scans[k] >= position.size()) position.resize(trajectory_scans[k] + 1, -1);
+    position[trajectory_scans[k]] = static_cast<long>(k);
+  }
+  std::vector<bench::Relation> within;
+  for (const bench::Relation& r : relations)
+    if (r.i < position.size() && r.j < position.size() && position[r.i] >= 0 && position[r.j] >= 0)
+      within.push_back({static_cast<size_t>(position[r.i]), static_cast<size_t>(position[r.j]), r.motion});
+  return within;
+}
+
+std::string scanCheckedColumns(const std::vector<Pose2D>& estimate, const std::vector<bench::Relation>& relations) {
+  const auto e = bench::relationError(estimate, relations);
+  if (e.count == 0) return " – | – |";
+  return " " + cell(e.trans_mean, e.trans_std, 1, 3) + " | " + cell(e.rot_mean, e.rot_std, 180.0 / M_PI, 2) + " |";
+}
+
 void row(const std::string& log_name, const std::string& label, const std::vector<Pose2D>& estimate,
-         const std::vector<Pose2D>& reference, double conflict) {
+         const std::vector<Pose2D>& reference, double conflict, const std::string& more_columns) {
   const double deg = 180.0 / M_PI;
   const auto one = bench::relationError(estimate, reference, bench::consecutivePairs(reference.size(), 1));
   const auto ten = bench::relationError(estimate, reference, bench::consecutivePairs(reference.size(), 10));
@@ -47,31 +74,50 @@ void row(const std::string& log_name, const std::string& label, const std::vecto
             << cell(one.rot_mean, one.rot_std, deg, 2) << " | " << cell(ten.trans_mean, ten.trans_std, 1, 3) << " | "
             << cell(ten.rot_mean, ten.rot_std, deg, 2) << " | " << cell(global.trans_mean, global.trans_std, 1, 2)
             << " | " << cell(global.rot_mean, global.rot_std, deg, 1) << " | " << std::fixed << std::setprecision(2) << conflict
-            << " |\n";
+            << " |" << more_columns << "\n";
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::cerr << "usage: mrslam_bench_slam_eval LOG [LABEL=TRAJECTORY ...]\n";
+  int first = 1;
+  size_t relation_count = 0;
+  bool bad_count = false;
+  if (argc > 1 && std::string(argv[1]) == "--scan-relations") {
+    char* end = nullptr;
+    relation_count = argc > 2 ? std::strtoul(argv[2], &end, 10) : 0;
+    bad_count = argc <= 2 || *end != '\0' || relation_count < 1 || relation_count > 100000;
+    first = 3;
+  }
+  if (argc <= first || bad_count) {
+    std::cerr << "usage: mrslam_bench_slam_eval [--scan-relations N (1..100000)] LOG [LABEL=TRAJECTORY ...]\n";
     return 2;
   }
   try {
-    const auto log = mrslam::slam::readRobotLog(argv[1]);
-    if (!log.records.front().has_reference) throw std::runtime_error(std::string(argv[1]) + ": no reference poses");
-    std::string name = argv[1];
+    const auto log = mrslam::slam::readRobotLog(argv[first]);
+    if (!log.records.front().has_reference) throw std::runtime_error(std::string(argv[first]) + ": no reference poses");
+    std::string name = argv[first];
     name = name.substr(name.find_last_of('/') + 1);
     name = name.substr(0, name.find('.'));
     std::vector<Pose2D> reference;
     for (const auto& r : log.records) reference.push_back(r.reference);
     std::vector<size_t> all(log.records.size());
     for (size_t k = 0; k < all.size(); ++k) all[k] = k;
+    std::vector<bench::Relation> relations;
+    if (relation_count > 0) {
+      const auto checked = bench::scanCheckedRelations(log, relation_count, 2009);
+      relations = checked.relations;
+      std::cerr << name << ": " << relations.size() << " relations checked by the scans (" << checked.tried << " pairs tried of "
+                << checked.candidates << " on different passes)\n";
+    }
+    auto more = [&](const std::vector<Pose2D>& poses, const std::vector<size_t>& scans) {
+      return relation_count > 0 ? scanCheckedColumns(poses, relationsWithin(relations, scans)) : std::string();
+    };
     std::cout << "| " << name << " | reference poses (the truth used here) | – | – | – | – | – | – | " << std::fixed
-              << std::setprecision(2) << conflictPercent(log, all, reference) << " |\n";
+              << std::setprecision(2) << conflictPercent(log, all, reference) << " |" << more(reference, all) << "\n";
     const auto odometry = mrslam::slam::chainOdometry(log);
-    row(name, "odometry (raw, ODOM lines)", odometry, reference, conflictPercent(log, all, odometry));
-    for (int i = 2; i < argc; ++i) {
+    row(name, "odometry (raw, ODOM lines)", odometry, reference, conflictPercent(log, all, odometry), more(odometry, all));
+    for (int i = first + 1; i < argc; ++i) {
       const std::string arg = argv[i];
       const size_t eq = arg.find('=');
       if (eq == std::string::npos) throw std::runtime_error("expected LABEL=TRAJECTORY, got " + arg);
@@ -95,7 +141,7 @@ int main(int argc, char** argv) {
       }
       if (estimate.size() < log.records.size())
         std::cerr << arg << ": " << log.records.size() - estimate.size() << " scans not in the trajectory\n";
-      row(name, arg.substr(0, eq), estimate, matched_reference, conflictPercent(log, scans, estimate));
+      row(name, arg.substr(0, eq), estimate, matched_reference, conflictPercent(log, scans, estimate), more(estimate, scans));
     }
   } catch (const std::exception& e) {
     std::cerr << "mrslam_bench_slam_eval: " << e.what() << "\n";

@@ -1,5 +1,6 @@
 #include "mrslam/bench/trajectory_metrics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -8,15 +9,13 @@
 
 namespace mrslam::bench {
 
-RelationError relationError(const std::vector<Pose2D>& estimate, const std::vector<Pose2D>& reference,
-                            const std::vector<std::pair<size_t, size_t>>& pairs) {
+RelationError relationError(const std::vector<Pose2D>& estimate, const std::vector<Relation>& relations) {
   RelationError e;
   double t2 = 0, r2 = 0;
-  for (const auto& [i, j] : pairs) {
-    if (i >= estimate.size() || j >= estimate.size() || i >= reference.size() || j >= reference.size()) continue;
-    const Pose2D d_est = estimate[i].inverse().compose(estimate[j]);
-    const Pose2D d_ref = reference[i].inverse().compose(reference[j]);
-    const Pose2D err = d_ref.inverse().compose(d_est);
+  for (const Relation& relation : relations) {
+    if (relation.i >= estimate.size() || relation.j >= estimate.size()) continue;
+    const Pose2D d_est = estimate[relation.i].inverse().compose(estimate[relation.j]);
+    const Pose2D err = relation.motion.inverse().compose(d_est);
     const double t = std::hypot(err.x, err.y), r = std::abs(err.yaw);
     e.trans_mean += t, t2 += t * t, e.rot_mean += r, r2 += r * r;
     ++e.count;
@@ -27,6 +26,15 @@ RelationError relationError(const std::vector<Pose2D>& estimate, const std::vect
   e.trans_std = std::sqrt(std::max(0.0, t2 / n - e.trans_mean * e.trans_mean));
   e.rot_std = std::sqrt(std::max(0.0, r2 / n - e.rot_mean * e.rot_mean));
   return e;
+}
+
+RelationError relationError(const std::vector<Pose2D>& estimate, const std::vector<Pose2D>& reference,
+                            const std::vector<std::pair<size_t, size_t>>& pairs) {
+  std::vector<Relation> relations;
+  relations.reserve(pairs.size());
+  for (const auto& [i, j] : pairs)
+    if (i < reference.size() && j < reference.size()) relations.push_back({i, j, reference[i].inverse().compose(reference[j])});
+  return relationError(estimate, relations);
 }
 
 std::vector<std::pair<size_t, size_t>> consecutivePairs(size_t n, size_t step) {

@@ -17,7 +17,16 @@ struct RelationError {
   size_t count = 0;
 };
 
-// Error of every relation (i, j): |(est_i^-1 est_j) ⊖ (ref_i^-1 ref_j)|, translation and angle.
+// A relation: the motion from pose i to pose j (pose j in the frame of pose i).
+struct Relation {
+  size_t i = 0, j = 0;
+  Pose2D motion;
+};
+
+// Error of every relation: |(est_i^-1 est_j) ⊖ motion|, translation and angle. Relations with
+// an end outside `estimate` are skipped.
+RelationError relationError(const std::vector<Pose2D>& estimate, const std::vector<Relation>& relations);
+// The same with each relation (i, j) taken from `reference`.
 RelationError relationError(const std::vector<Pose2D>& estimate, const std::vector<Pose2D>& reference,
                             const std::vector<std::pair<size_t, size_t>>& pairs);
 
