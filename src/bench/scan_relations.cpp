@@ -152,19 +152,32 @@ double inlierShare(const Cloud& a, const Cloud& b, const Eigen::Vector3d& x, dou
 Eigen::Vector3d vectorOf(const Pose2D& p) { return {p.x, p.y, p.yaw}; }
 Pose2D poseOf(const Eigen::Vector3d& x) { return {x(0), x(1), Pose2D::normalizeAngle(x(2))}; }
 
-// Pairs of scans the reference puts on one place on different passes.
-std::vector<std::pair<size_t, size_t>> candidatePairs(const std::vector<Pose2D>& reference, const ScanRelationParams& params) {
+// At most this many candidate pairs are kept, a seeded uniform sample of all (reservoir
+// sampling): a robot that circles one room for an hour pairs every scan with thousands.
+constexpr size_t kMaxCandidates = 200000;
+
+// Pairs of scans the reference puts on one place on different passes, in a seeded random
+// order; `found` receives how many there were.
+std::vector<std::pair<size_t, size_t>> candidatePairs(const std::vector<Pose2D>& reference, const ScanRelationParams& params,
+                                                      unsigned seed, size_t& found) {
   std::vector<double> path(reference.size(), 0.0);
   for (size_t k = 1; k < reference.size(); ++k)
     path[k] = path[k - 1] + std::hypot(reference[k].x - reference[k - 1].x, reference[k].y - reference[k - 1].y);
+  std::mt19937 rng(seed);
   std::vector<std::pair<size_t, size_t>> pairs;
+  found = 0;
   for (size_t i = 0; i < reference.size(); ++i)
     for (size_t j = i + 1; j < reference.size(); ++j) {
       if (path[j] - path[i] < params.min_path) continue;
       if (std::hypot(reference[j].x - reference[i].x, reference[j].y - reference[i].y) > params.max_distance) continue;
       if (std::abs(Pose2D::normalizeAngle(reference[j].yaw - reference[i].yaw)) > params.max_turn) continue;
-      pairs.emplace_back(i, j);
+      if (++found <= kMaxCandidates) {
+        pairs.emplace_back(i, j);
+      } else if (const size_t slot = std::uniform_int_distribution<size_t>(0, found - 1)(rng); slot < kMaxCandidates) {
+        pairs[slot] = {i, j};
+      }
     }
+  std::shuffle(pairs.begin(), pairs.end(), rng);
   return pairs;
 }
 
@@ -206,9 +219,7 @@ ScanRelations scanCheckedRelations(const slam::RobotLog& log, size_t count, unsi
   std::vector<Pose2D> reference;
   for (const auto& record : log.records) reference.push_back(record.reference);
   ScanRelations out;
-  auto pairs = candidatePairs(reference, params);
-  out.candidates = pairs.size();
-  std::shuffle(pairs.begin(), pairs.end(), std::mt19937(seed));
+  const auto pairs = candidatePairs(reference, params, seed, out.candidates);
   for (const auto& [i, j] : pairs) {
     if (out.relations.size() >= count) break;
     ++out.tried;

@@ -48,7 +48,7 @@ struct ScanRelations {
 };
 
 // Up to `count` relations between scans of `log` (which must have reference poses), candidates
-// drawn in a seeded order.
+// drawn in a seeded order (from a seeded sample of 200000 where there are more).
 ScanRelations scanCheckedRelations(const slam::RobotLog& log, size_t count, unsigned seed,
                                    const ScanRelationParams& params = {});
 
