@@ -13,7 +13,7 @@ struct Counts {
   uint32_t hits = 0, misses = 0;
 };
 
-int64_t key(int x, int y) { return (static_cast<int64_t>(x) << 32) ^ static_cast<uint32_t>(y); }
+int64_t key(int x, int y) { return static_cast<int64_t>((static_cast<uint64_t>(x) << 32) ^ static_cast<uint32_t>(y)); }
 
 }  // namespace
 

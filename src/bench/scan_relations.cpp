@@ -81,7 +81,7 @@ class WallGrid {
 
  private:
   long cellOf(double v) const { return static_cast<long>(std::floor(v / cell_)); }
-  static int64_t key(long x, long y) { return (static_cast<int64_t>(x) << 32) ^ static_cast<uint32_t>(y); }
+  static int64_t key(long x, long y) { return static_cast<int64_t>((static_cast<uint64_t>(x) << 32) ^ static_cast<uint32_t>(y)); }
   const Cloud& cloud_;
   double cell_;
   std::unordered_map<int64_t, std::vector<size_t>> cells_;
