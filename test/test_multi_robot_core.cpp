@@ -2,6 +2,7 @@
 // hysteresis, the tf frame convention) and the OctoMap export, on real maps.
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -282,6 +283,57 @@ TEST(TcprosLink, OnlyALinkWithNothingArrivingIsDead) {
   EXPECT_TRUE(linkIsDead(12.5, 10.0)) << "nothing for longer than stale_after";
   EXPECT_FALSE(linkIsDead(0.3, 10.0)) << "a map still crossing a slow link";
   EXPECT_FALSE(linkIsDead(10.0, 10.0));
+}
+
+// A connection whose SYN is not answered yet is being opened, not silent for the hours since
+// boot the kernel reports for it (19584 s on the multi-host harness, 6 s after the re-make that
+// opened it): dead only once it has been opening for longer than stale_after.
+TEST(TcprosLink, AConnectionBeingOpenedIsSilentOnlyAsLongAsItHasBeenOpening) {
+  const uint32_t since_boot_ms = 19584200;
+  EXPECT_DOUBLE_EQ(linkSilence(false, 400, 0.0), 0.4);
+  EXPECT_DOUBLE_EQ(linkSilence(false, since_boot_ms, 0.0), 19584.2) << "established: the kernel's figure stands";
+  EXPECT_DOUBLE_EQ(linkSilence(true, since_boot_ms, 6.0), 6.0);
+  EXPECT_FALSE(linkIsDead(linkSilence(true, since_boot_ms, 6.0), 10.0));
+  EXPECT_TRUE(linkIsDead(linkSilence(true, since_boot_ms, 11.0), 10.0)) << "opening for longer than stale_after";
+}
+
+// What linkSilence relies on, asked of this machine's kernel over the loopback: a listener
+// whose accept queue is full drops further SYNs, so those connections stay being opened (as
+// after an outage, SYNs retried after 1, 2, 4 s); the one the queue took is established, and
+// before any data its last_data_recv counts from then. (The opening ones count from boot.)
+TEST(TcprosLink, TheKernelTellsAConnectionBeingOpenedFromAnEstablishedOne) {
+  const int listener = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(listener, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(bind(listener, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
+  ASSERT_EQ(listen(listener, 0), 0);  // an accept queue of one, never accepted from
+  socklen_t length = sizeof(address);
+  ASSERT_EQ(getsockname(listener, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  std::vector<int> clients;
+  for (int k = 0; k < 4; ++k) {
+    clients.push_back(socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK, 0));
+    ASSERT_GE(clients.back(), 0);
+    connect(clients.back(), reinterpret_cast<sockaddr*>(&address), sizeof(address));  // EINPROGRESS
+  }
+  usleep(200000);
+  int opening = 0, established = 0;
+  for (int fd : clients) {
+    const std::optional<TcpSocketState> state = tcpSocketState(fd);
+    ASSERT_TRUE(state);
+    if (state->opening) {
+      ++opening;
+    } else {
+      ++established;
+      EXPECT_LT(state->last_data_recv_ms, 5000u) << "established without data: counted from the connect";
+    }
+  }
+  EXPECT_GE(opening, 1) << "SYNs beyond a full accept queue are dropped";
+  EXPECT_GE(established, 1);
+  EXPECT_FALSE(tcpSocketState(-1));
+  for (int fd : clients) close(fd);
+  close(listener);
 }
 
 // Intel's scans as scripts/bench_multi's bags carry them (one every ~3.3 s), played while the

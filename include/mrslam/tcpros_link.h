@@ -8,6 +8,11 @@
 // connection, and re-making the share subscription cuts every transfer in flight.
 #pragma once
 
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
+
+#include <cstdint>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -34,6 +39,30 @@ inline std::optional<TcprosSocket> parseTcprosInfo(const std::string& info) {
     return std::nullopt;
   if (s.local_port <= 0 || s.local_port > 65535 || s.fd < 0) return std::nullopt;
   return s;
+}
+
+// What the kernel says of a TCP socket (TCP_INFO): whether it is still being opened (SYN sent,
+// not answered), and ms since data last arrived (see linkSilence). Nothing when `fd` is not a
+// TCP socket of this process.
+struct TcpSocketState {
+  bool opening = false;
+  uint32_t last_data_recv_ms = 0;
+};
+inline std::optional<TcpSocketState> tcpSocketState(int fd) {
+  tcp_info tcp{};
+  socklen_t length = sizeof(tcp);
+  if (getsockopt(fd, IPPROTO_TCP, TCP_INFO, &tcp, &length) != 0) return std::nullopt;
+  return TcpSocketState{tcp.tcpi_state == TCP_SYN_SENT, tcp.tcpi_last_data_recv};
+}
+
+// How long nothing has arrived on a connection, from the kernel's TCP_INFO. The kernel counts
+// last_data_recv from the last data or, before any, from when the connection was established.
+// A connection still being opened (`opening`: its SYN not answered yet, which TCP backs off
+// for seconds after an outage) has neither, and the figure counts from boot: hours, as on the
+// multi-host harness (19584 s), where it made a connection being opened look dead. Its silence
+// is how long this process has seen it opening, `opening_for_s`.
+inline double linkSilence(bool opening, uint32_t last_data_recv_ms, double opening_for_s) {
+  return opening ? opening_for_s : last_data_recv_ms / 1000.0;
 }
 
 // A peer silent for stale_after gets its connection re-made only when its link is dead too:

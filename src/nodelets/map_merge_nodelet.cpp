@@ -10,10 +10,10 @@
 // accepted, via (the peers it is placed through when its map does not overlap ours enough, empty
 // when direct), x, y, yaw of the peer's map frame in ours, acceptance V, last estimate time, and
 // stale: nothing heard from the peer for stale_after s; link_silent_s: how long ago data last
-// arrived on the connection to it, -1 when none is open; while a stale peer's link is silent
-// too, the share subscriptions are re-made every stale_after, see watchShareLinks),
-// diagnostics; service ~export_octomap (std_srvs/Trigger) writes the merged map as an OctoMap
-// .bt to the parameter octomap_path.
+// arrived on the connection to it (one still being opened: how long it has been), -1 when none
+// is open; while a stale peer's link is silent too, the share subscriptions are re-made every
+// stale_after, see watchShareLinks), diagnostics; service ~export_octomap (std_srvs/Trigger)
+// writes the merged map as an OctoMap .bt to the parameter octomap_path.
 //
 // Fault containment: nothing a peer sends may take this robot down. A share is checked in the
 // callback (id, grid structure, origin) and its grid again in the worker with exactly the
@@ -166,7 +166,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       if (!config_problem_.empty()) return;
       for (const auto& [id, peer] : registry_->peers()) holders[id] = owners_[id].holder();
     }
-    const std::map<std::string, double> silence = shareLinkSilence(share_topics_);
+    const std::map<std::string, double> silence = shareLinkSilence(share_topics_, opening_since_, now);
     std::map<std::string, std::optional<double>> link_silent;
     for (const auto& [id, node] : holders) {
       const std::optional<std::string> uri = publisherUri(node);
@@ -688,6 +688,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::optional<std::set<std::string>> master_publishers_;
   std::map<std::string, std::string> publisher_uris_;  // publishing node -> its XML-RPC URI
   std::map<std::string, std::optional<double>> link_silent_;  // peer id -> s since data arrived on its link
+  OpeningSince opening_since_;  // share connections being opened (the diagnostics timer's own)
   double master_asked_ = -1e18;
   double owner_timeout_ = 30.0, stale_after_ = 90.0;
   size_t impostor_shares_ = 0, share_reconnects_ = 0;

@@ -1,13 +1,13 @@
 // How long ago data last arrived on each connection this process holds to a publisher of the
 // share topics: the node's own XML-RPC server lists the connections (getBusInfo, what `rosnode
 // info` asks: publisher URI, topic, transport info naming the socket; roscpp keeps the function
-// itself private), the kernel keeps the time per socket (TCP_INFO). roscpp's per-connection
-// byte counts (getBusStats) cannot be used: Subscription::getStats (ros_comm 1.15) writes every
-// connection into the same slot, so it reports one publisher per topic.
+// itself private), the kernel keeps the time per socket (TCP_INFO; a connection being opened:
+// see linkSilence). roscpp's per-connection byte counts (getBusStats) cannot be used:
+// Subscription::getStats (ros_comm 1.15) writes every connection into the same slot, so it
+// reports one publisher per topic.
 #pragma once
 
 #include <netinet/in.h>
-#include <netinet/tcp.h>
 #include <ros/network.h>
 #include <ros/this_node.h>
 #include <ros/xmlrpc_manager.h>
@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mrslam/tcpros_link.h"
@@ -54,12 +55,20 @@ inline XmlRpc::XmlRpcValue ownBusInfo() {
   return info;
 }
 
+// When each connection still being opened was first seen (wall s), by (descriptor, local port).
+using OpeningSince = std::map<std::pair<int, int>, double>;
+
 // Seconds since data last arrived from each publisher (by its XML-RPC URI) of any of `topics`,
-// over the freshest of its TCP connections. Publishers without an open TCP connection are
-// missing; so are connections whose socket cannot be read (then nothing is known of them).
-inline std::map<std::string, double> shareLinkSilence(const std::vector<std::string>& topics) {
+// over the freshest of its TCP connections (linkSilence: a connection being opened counts from
+// when it was first seen opening, kept in `opening_since` across calls at wall time `now`; the
+// entries of connections no longer opening are dropped). Publishers without an open TCP
+// connection are missing; so are connections whose socket cannot be read (then nothing is known
+// of them).
+inline std::map<std::string, double> shareLinkSilence(const std::vector<std::string>& topics,
+                                                      OpeningSince& opening_since, double now) {
   XmlRpc::XmlRpcValue info = ownBusInfo();
   std::map<std::string, double> silence;
+  OpeningSince still_opening;
   try {
     for (int i = 0; i < info.size(); ++i) {
       XmlRpc::XmlRpcValue& connection = info[i];  // [id, publisher URI, direction, transport, topic, connected, info]
@@ -67,17 +76,27 @@ inline std::map<std::string, double> shareLinkSilence(const std::vector<std::str
       if (std::find(topics.begin(), topics.end(), static_cast<std::string>(connection[4])) == topics.end()) continue;
       const auto socket = parseTcprosInfo(connection[6]);
       if (!socket || localPortOf(socket->fd) != socket->local_port) continue;  // closed, or the number reused
-      tcp_info tcp{};
-      socklen_t length = sizeof(tcp);
-      if (getsockopt(socket->fd, IPPROTO_TCP, TCP_INFO, &tcp, &length) != 0) continue;
+      const std::optional<TcpSocketState> tcp = tcpSocketState(socket->fd);
+      if (!tcp) continue;
+      double opening_for = 0;
+      if (tcp->opening) {
+        const std::pair<int, int> key{socket->fd, socket->local_port};
+        const auto seen = opening_since.find(key);
+        const double since = seen != opening_since.end() ? seen->second : now;
+        still_opening[key] = since;
+        opening_for = now - since;
+      }
       const std::string uri = connection[1];
-      const double silent_s = tcp.tcpi_last_data_recv / 1000.0;
+      const double silent_s = linkSilence(tcp->opening, tcp->last_data_recv_ms, opening_for);
       const auto known = silence.find(uri);
       silence[uri] = known == silence.end() ? silent_s : std::min(known->second, silent_s);
     }
   } catch (const XmlRpc::XmlRpcException&) {
-    // An entry of another shape: what was read so far stands.
+    // An entry of another shape: what was read so far stands, and the entries not reached keep
+    // their first sighting.
+    still_opening.insert(opening_since.begin(), opening_since.end());
   }
+  opening_since.swap(still_opening);
   return silence;
 }
 
