@@ -52,6 +52,7 @@ struct PairStatus {
   mrslam::Pose2D pose;
   bool current = false;  // the estimate was made on both maps as they are now
   bool stale = false;    // the merger has heard nothing from the peer for stale_after
+  double heard_s_ago = -1;  // wall s since the merger last heard from the peer
   double link_silent = -1;  // s since data last arrived on the merger's connection to the peer (-1: none open)
   std::string attempts, why;  // when not accepted: how often the merger tried, and its last reason
   std::string via;            // the peers a relayed pair is placed through (empty: direct)
@@ -124,6 +125,7 @@ int main(int argc, char** argv) {
             const bool was_accepted = p.accepted;
             p.accepted = v["accepted"] == "True";
             p.stale = v["stale"] == "True";
+            p.heard_s_ago = v.count("heard_s_ago") ? std::stod(v["heard_s_ago"]) : -1.0;
             p.link_silent = v.count("link_silent_s") ? std::stod(v["link_silent_s"]) : -1.0;
             p.attempts = v["attempts"];
             p.why = s.message;
@@ -189,16 +191,17 @@ int main(int argc, char** argv) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
     if (!value.accepted) {
-      std::printf("pair robot%d <- %s accepted=0 stale=%d link_silent_s=%.1f attempts=%s why=%s\n", key.first,
-                  key.second.c_str(), value.stale ? 1 : 0, value.link_silent, value.attempts.c_str(), value.why.c_str());
+      std::printf("pair robot%d <- %s accepted=0 stale=%d heard_s_ago=%.1f link_silent_s=%.1f attempts=%s why=%s\n",
+                  key.first, key.second.c_str(), value.stale ? 1 : 0, value.heard_s_ago, value.link_silent,
+                  value.attempts.c_str(), value.why.c_str());
       continue;
     }
     ++accepted, delays.push_back(value.delay);
     const int peer = std::atoi(key.second.c_str() + 5);
     if (!world[key.first] || world.count(peer) == 0 || !world[peer]) {
       ++unchecked;
-      std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d link_silent_s=%.1f\n",
-                  key.first, key.second.c_str(), value.delay, value.stale ? 1 : 0, value.link_silent);
+      std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d heard_s_ago=%.1f link_silent_s=%.1f\n",
+                  key.first, key.second.c_str(), value.delay, value.stale ? 1 : 0, value.heard_s_ago, value.link_silent);
       continue;
     }
     const auto e = mrslam::bench::peerFrameError(value.pose, *world[key.first], *world[peer], tracks[peer]);
@@ -209,9 +212,10 @@ int main(int argc, char** argv) {
     // bar of MergeRegressions and of the multi-run truth in bench_merge).
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
-    std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d link_silent_s=%.1f deg=%.2f cells=%.2f "
-                "truth_bar_cells=%.2f first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n", key.first,
-                key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.link_silent, e.yaw_deg, cells,
+    std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d heard_s_ago=%.1f link_silent_s=%.1f "
+                "deg=%.2f cells=%.2f truth_bar_cells=%.2f first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
+                key.first, key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.heard_s_ago,
+                value.link_silent, e.yaw_deg, cells,
                 truth_bar, value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
                 value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
     relayed += !value.via.empty();
