@@ -11,7 +11,7 @@
 // poses came after their scans arrived (wall s) and how many scans waited for, or went without,
 // the gyro. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
 // (accepted, delay, correct, stale: as the last status said; when not accepted, the merger's
-// attempts and its last reason; when accepted, what led there: when the merger stamped the
+// attempts, the relays it tried and its last reason; when accepted, what led there: when the merger stamped the
 // peer's first map on its own clock, the first try's delay, the tries up to the accept and the
 // last rejection's reason).
 // The clock it reads is /clock (remap it to follow one robot's clock).
@@ -30,6 +30,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,21 @@ std::string viaField(std::string via) {
   std::replace(via.begin(), via.end(), ' ', ',');
   return via;
 }
+// merge_status's relays ("robot1 3 accepted; robot2 2 rejected: <reason>") as one field without
+// the reasons: "robot1:3:accepted,robot2:2:rejected".
+std::string compactRelays(const std::string& relays) {
+  std::string out;
+  std::istringstream entries(relays);
+  std::string entry;
+  while (std::getline(entries, entry, ';')) {
+    std::istringstream words(entry);
+    std::string via, tries, verdict;
+    if (!(words >> via >> tries >> verdict)) continue;
+    if (!verdict.empty() && verdict.back() == ':') verdict.pop_back();
+    out += (out.empty() ? "" : ",") + via + ":" + tries + ":" + verdict;
+  }
+  return out;
+}
 
 struct PairStatus {
   bool accepted = false;
@@ -55,6 +71,7 @@ struct PairStatus {
   double heard_s_ago = -1;  // wall s since the merger last heard from the peer
   double link_silent = -1;  // s since data last arrived on the merger's connection to the peer (-1: none open)
   std::string attempts, why;  // when not accepted: how often the merger tried, and its last reason
+  std::string relays;         // when not accepted: each via tried, "via:tries:accepted|rejected"
   std::string via;            // the peers a relayed pair is placed through (empty: direct)
   // What led to the first accept: the simulated s from the peer's first map to the merger's
   // first try, the merger's tries up to the accept, and the last reason it rejected before.
@@ -128,6 +145,7 @@ int main(int argc, char** argv) {
             p.heard_s_ago = v.count("heard_s_ago") ? std::stod(v["heard_s_ago"]) : -1.0;
             p.link_silent = v.count("link_silent_s") ? std::stod(v["link_silent_s"]) : -1.0;
             p.attempts = v["attempts"];
+            p.relays = compactRelays(v["relays"]);
             p.why = s.message;
             const int tries = std::atoi(p.attempts.c_str());
             p.first_map_time = std::stod(v["first_map_time"]);
@@ -191,9 +209,10 @@ int main(int argc, char** argv) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
     if (!value.accepted) {
-      std::printf("pair robot%d <- %s accepted=0 stale=%d heard_s_ago=%.1f link_silent_s=%.1f attempts=%s why=%s\n",
+      std::printf("pair robot%d <- %s accepted=0 stale=%d heard_s_ago=%.1f link_silent_s=%.1f attempts=%s relays=%s "
+                  "why=%s\n",
                   key.first, key.second.c_str(), value.stale ? 1 : 0, value.heard_s_ago, value.link_silent,
-                  value.attempts.c_str(), value.why.c_str());
+                  value.attempts.c_str(), value.relays.empty() ? "none" : value.relays.c_str(), value.why.c_str());
       continue;
     }
     ++accepted, delays.push_back(value.delay);

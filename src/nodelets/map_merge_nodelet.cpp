@@ -579,6 +579,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       s.add("attempts", peer.attempts);
       s.add("estimate_current", registry_->estimateIsCurrent(peer, own_summary_));
       s.add("version", peer.version);
+      s.add("relays", relaysOf(peer));
       // A robot re-sends an unchanged map every share_keyframe_period: silence beyond
       // stale_after means its link (or the robot) is down. Its last estimate stays in use.
       const double silent = silentFor(id, ros::WallTime::now().toSec());
@@ -600,6 +601,20 @@ class MapMergeNodelet : public nodelet::Nodelet {
     if (!placed) return "not accepted: " + peer.last_attempt.reason;
     if (peer.last_attempt.accepted) return "accepted";
     return "accepted (held; the last re-estimate was not: " + peer.last_attempt.reason + ")";
+  }
+
+  // Each relay tried for a peer: "via tries accepted|rejected", the rejections with their last
+  // reason ("robot1 3 accepted; robot2 2 rejected: acceptance index V 0.951 < 0.97"): a peer
+  // not placed tells relays never tried (the worker busy with direct estimates) from relays
+  // that disagree or fail.
+  static std::string relaysOf(const fusion::Peer& peer) {
+    std::string out;
+    for (const auto& [via, relay] : peer.relays) {
+      if (relay.attempts == 0) continue;
+      out += (out.empty() ? "" : "; ") + via + " " + std::to_string(relay.attempts) +
+             (relay.accepted ? " accepted" : " rejected: " + relay.last_attempt.reason);
+    }
+    return out;
   }
 
   static std::string joined(const std::vector<std::string>& ids) {
