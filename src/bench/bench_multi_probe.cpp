@@ -9,11 +9,12 @@
 // the bag's clock: mean over robots, the busiest robot's mean, and the most any robot sent in
 // 10 s of the bag's clock. Per robot, from its SLAM nodelet's last diagnostics: how long its
 // poses came after their scans arrived (wall s) and how many scans waited for, or went without,
-// the gyro. One "pair robotA <- robotB ..." line per ordered pair it saw in a merge_status
-// (accepted, delay, correct, stale: as the last status said; when not accepted, the merger's
-// attempts, the relays it tried and its last reason; when accepted, what led there: when the merger stamped the
-// peer's first map on its own clock, the first try's delay, the tries up to the accept and the
-// last rejection's reason).
+// the gyro; from its merger's: how often it re-made its share subscriptions. One "pair robotA <-
+// robotB ..." line per ordered pair it saw in a merge_status (accepted, delay, correct, stale:
+// as the last status said; when not accepted, the merger's attempts, the relays it tried and
+// its last reason; when accepted, what led there: when the merger stamped the peer's first map
+// on its own clock, the first try's delay, the tries up to the accept and the last rejection's
+// reason).
 // The clock it reads is /clock (remap it to follow one robot's clock).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -161,15 +162,19 @@ int main(int argc, char** argv) {
           }
         }));
   }
-  std::map<int, std::map<std::string, std::string>> slam_status;  // robot -> its SLAM nodelet's last values
+  std::map<int, std::map<std::string, std::string>> slam_status;   // robot -> its SLAM nodelet's last values
+  std::map<int, std::map<std::string, std::string>> merge_status;  // robot -> its merger's last values
   subs.push_back(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
       "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
         std::lock_guard<std::mutex> lock(mutex);
         for (const auto& s : m->status) {
-          // The SLAM nodelet's updater names its hardware after the robot's namespace.
-          if (s.name.find("slam") == std::string::npos || s.hardware_id.rfind("/robot", 0) != 0) continue;
+          // The nodelets' updaters name their hardware after the robot's namespace.
+          if (s.hardware_id.rfind("/robot", 0) != 0) continue;
           const int k = std::atoi(s.hardware_id.c_str() + 6);
-          for (const auto& kv : s.values) slam_status[k][kv.key] = kv.value;
+          if (s.name.find("slam") != std::string::npos)
+            for (const auto& kv : s.values) slam_status[k][kv.key] = kv.value;
+          else if (s.name.find("map merge") != std::string::npos)
+            for (const auto& kv : s.values) merge_status[k][kv.key] = kv.value;
         }
       }));
   std::map<std::string, uint32_t> share_version;
@@ -202,6 +207,10 @@ int main(int argc, char** argv) {
                   v["pose lag behind its scan's arrival, mean of the last 100 (wall s)"].c_str(),
                   v["pose lag behind its scan's arrival, most ever (wall s)"].c_str(), v["scans that waited for the gyro"].c_str(),
                   v["scans the gyro did not cover"].c_str());
+    // How often the merger re-made its share subscriptions (its log warns of the first only).
+    auto& merge = merge_status[k];
+    if (merge.count("share reconnects (a stale peer's link was silent too)"))
+      std::printf("merge_robot%d share_reconnects=%s\n", k, merge["share reconnects (a stale peer's link was silent too)"].c_str());
   }
   int accepted = 0, total = 0, correct = 0, unchecked = 0, relayed = 0;
   std::vector<double> delays;
