@@ -208,9 +208,9 @@ int main(int argc, char** argv) {
                   v["pose lag behind its scan's arrival, most ever (wall s)"].c_str(), v["scans that waited for the gyro"].c_str(),
                   v["scans the gyro did not cover"].c_str());
     // How often the merger re-made its share subscriptions (its log warns of the first only).
-    auto& merge = merge_status[k];
-    if (merge.count("share reconnects (a stale peer's link was silent too)"))
-      std::printf("merge_robot%d share_reconnects=%s\n", k, merge["share reconnects (a stale peer's link was silent too)"].c_str());
+    const auto reconnects = merge_status[k].find("share reconnects (a stale peer's link was silent too)");
+    if (reconnects != merge_status[k].end())
+      std::printf("merge_robot%d share_reconnects=%s\n", k, reconnects->second.c_str());
   }
   int accepted = 0, total = 0, correct = 0, unchecked = 0, relayed = 0;
   std::vector<double> delays;
