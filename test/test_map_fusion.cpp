@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "mrslam/bench/pair_maker.h"
+#include "mrslam/fusion/estimate_record.h"
 #include "mrslam/fusion/fusion_params_io.h"
 #include "mrslam/fusion/map_fusion.h"
 #include "mrslam/fusion/peer_registry.h"
@@ -275,6 +276,61 @@ TEST(MapFusion, AHeldPoseIsConfirmedOnlyWhereTheMapsStillSupportIt) {
   expectCorrect(confirmed, maps.b, truth);
   const FusionResult wrong = alignMaps(maps.a, maps.b, blind, truth.compose(Pose2D{3.0, 0.0, 0.0}));
   EXPECT_FALSE(wrong.accepted) << "a held pose 3 m off was confirmed";
+}
+
+TEST(EstimateRecord, AMergersRecordReplaysOfflineToTheSameEstimate) {
+  // What a merger with record_dir writes: the Intel windows above estimated with a held pose
+  // (accepted), then B against another building (rejected). mrslam_merge on the recorded files,
+  // given the recorded held pose, must reach the merger's answer for both.
+  const fs::path dir = tempDir() / "records";
+  fs::remove_all(dir);
+  const Pose2D truth{-12.0, 31.0, -71.0 * kDeg};
+  const WindowPair maps = windowPair("intel-corrected.log.gz", 0, 450, 350, 910, truth, 1);
+  const Pose2D held = truth.compose(Pose2D{0.05, -0.05, 0.5 * kDeg});
+  const FusionResult accepted = alignMaps(maps.a, maps.b, FusionParams{}, held);
+  ASSERT_TRUE(accepted.accepted) << accepted.verdict.reason;
+  recordEstimate(dir.string(), "robot2", maps.a, maps.b, held, accepted, 100.0);
+  const OccupancyGrid other = loadMap(test::referenceMap("freiburg-079"));
+  const FusionResult rejected = alignMaps(other, maps.b, FusionParams{});
+  ASSERT_FALSE(rejected.accepted);
+  recordEstimate(dir.string(), "robot2", other, maps.b, std::nullopt, rejected, 101.0);
+
+  std::ifstream table(dir / "robot2" / "estimates.tsv");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(table, line);) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[0] + "\n", kEstimateRecordHeader);
+  EXPECT_EQ(lines[1].rfind("100.000\t1\t", 0), 0u) << lines[1];
+  EXPECT_EQ(lines[2].rfind("101.000\t0\t", 0), 0u) << lines[2];
+  EXPECT_NE(lines[2].find(rejected.verdict.reason), std::string::npos) << lines[2];
+
+  // The held pose as the table holds it (column 8), back through the command line.
+  std::vector<std::string> columns;
+  for (size_t from = 0, tab; from <= lines[1].size(); from = tab + 1) {
+    tab = lines[1].find('\t', from);
+    if (tab == std::string::npos) tab = lines[1].size();
+    columns.push_back(lines[1].substr(from, tab - from));
+  }
+  ASSERT_EQ(columns.size(), 9u);
+  const std::string record = (dir / "robot2").string();
+  const test::RunResult replay_accepted =
+      run("--json --held " + columns[7] + " " + record + "/accepted_a.yaml " + record + "/accepted_b.yaml");
+  ASSERT_EQ(replay_accepted.status, 0) << replay_accepted.output;
+  EXPECT_NE(replay_accepted.output.find("\"accepted\": true"), std::string::npos) << replay_accepted.output;
+  double x = 0, y = 0, yaw = 0;
+  ASSERT_EQ(std::sscanf(replay_accepted.output.c_str() + replay_accepted.output.find("\"x\""),
+                        "\"x\": %lf, \"y\": %lf, \"yaw\": %lf", &x, &y, &yaw), 3);
+  EXPECT_NEAR(x, accepted.pose.x, 1e-6);
+  EXPECT_NEAR(y, accepted.pose.y, 1e-6);
+  EXPECT_NEAR(yaw, accepted.pose.yaw, 1e-6);
+  const test::RunResult replay_rejected = run("--json " + record + "/latest_a.yaml " + record + "/latest_b.yaml");
+  ASSERT_EQ(replay_rejected.status, 0) << replay_rejected.output;
+  EXPECT_NE(replay_rejected.output.find("\"accepted\": false"), std::string::npos) << replay_rejected.output;
+  EXPECT_NE(replay_rejected.output.find(rejected.verdict.reason), std::string::npos) << replay_rejected.output;
+
+  EXPECT_THROW(recordEstimate(dir.string(), "../robot2", maps.a, maps.b, held, accepted, 102.0), std::invalid_argument);
+  EXPECT_NE(run("--held 1,2 " + record + "/latest_a.yaml " + record + "/latest_b.yaml").status, 0);
+  fs::remove_all(dir);
 }
 
 TEST(MapFusion, FindsCorridorsTheCoarseLevelBlursWithoutAFinerSearch) {

@@ -217,15 +217,25 @@ int main(int argc, char** argv) {
   for (const auto& [key, value] : pairs) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
+    const int peer = std::atoi(key.second.c_str() + 5);
     if (!value.accepted) {
+      // The truth too, as x,y,yaw of the peer's map frame in ours: a pair missed can be replayed
+      // on the maps its merger recorded (record_dir) and the right pose checked.
+      std::string truth = "unknown";
+      if (world[key.first] && world.count(peer) && world[peer]) {
+        const mrslam::Pose2D t = mrslam::bench::peerFrameError(mrslam::Pose2D{}, *world[key.first], *world[peer], tracks[peer]).truth;
+        char text[96];
+        std::snprintf(text, sizeof(text), "%.4f,%.4f,%.5f", t.x, t.y, t.yaw);
+        truth = text;
+      }
       std::printf("pair robot%d <- %s accepted=0 stale=%d heard_s_ago=%.1f link_silent_s=%.1f attempts=%s relays=%s "
-                  "why=%s\n",
+                  "truth=%s why=%s\n",
                   key.first, key.second.c_str(), value.stale ? 1 : 0, value.heard_s_ago, value.link_silent,
-                  value.attempts.c_str(), value.relays.empty() ? "none" : value.relays.c_str(), value.why.c_str());
+                  value.attempts.c_str(), value.relays.empty() ? "none" : value.relays.c_str(), truth.c_str(),
+                  value.why.c_str());
       continue;
     }
     ++accepted, delays.push_back(value.delay);
-    const int peer = std::atoi(key.second.c_str() + 5);
     if (!world[key.first] || world.count(peer) == 0 || !world[peer]) {
       ++unchecked;
       std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d heard_s_ago=%.1f link_silent_s=%.1f\n",

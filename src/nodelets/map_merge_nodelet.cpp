@@ -39,6 +39,7 @@
 #include <optional>
 #include <thread>
 
+#include "mrslam/fusion/estimate_record.h"
 #include "mrslam/fusion/fusion_params_io.h"
 #include "mrslam/fusion/grid_merge.h"
 #include "mrslam/fusion/map_fusion.h"
@@ -78,6 +79,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     share_topics_ = {nh.resolveName(topic), nh.resolveName(compressed_topic)};
     config.param<std::string>("fusion_config", fusion_config, "");
     config.param<std::string>("octomap_path", octomap_path_, "/tmp/" + robot_id_ + "_merged_map.bt");
+    config.param<std::string>("record_dir", record_dir_, "");
     config.param("max_peer_cells", max_peer_cells_, 64.0e6);
     config.param("merged_map_period", merged_map_period_, 2.0);
     fusion::PeerRegistryParams registry_params;
@@ -477,6 +479,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       forgetPeer(peer_id, std::string("fusion failed: ") + e.what());
       return;
     }
+    record(peer_id, *own, *peer_map, held, result);
     std::lock_guard<std::mutex> lock(mutex_);
     if (!registry_->peers().count(peer_id)) return;
     const bool had = registry_->peers().at(peer_id).accepted.has_value();
@@ -514,10 +517,24 @@ class MapMergeNodelet : public nodelet::Nodelet {
       recordFault("relay " + peer_id + " via " + via_id, e.what());
       return;
     }
+    record(peer_id + "_via_" + via_id, *via_map, *peer_map, held, result);
     std::lock_guard<std::mutex> lock(mutex_);
     if (registry_->applyRelayEstimate(peer_id, via_id, result, ros::Time::now().toSec(), ros::WallTime::now().toSec()))
       merged_due_ = true;
     publishStatus();
+  }
+
+  // With record_dir set, the maps and outcome of every estimate (estimate_record.h), so that
+  // any merge this robot made or refused replays offline with mrslam_merge. A full disk costs
+  // the records, never the merge.
+  void record(const std::string& name, const OccupancyGrid& a, const OccupancyGrid& b,
+              const std::optional<Pose2D>& held, const fusion::FusionResult& result) {
+    if (record_dir_.empty()) return;
+    try {
+      fusion::recordEstimate(record_dir_, name, a, b, held, result, ros::WallTime::now().toSec());
+    } catch (const std::exception& e) {
+      NODELET_ERROR_THROTTLE(60.0, "record_dir: %s; merging goes on without records", e.what());
+    }
   }
 
   void publishParentEdge() {  // mutex_ held
@@ -690,6 +707,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::atomic<bool> stop_{false};
   std::thread worker_;
   std::string robot_id_, map_frame_, octomap_path_, last_problem_;
+  std::string record_dir_;  // set in onInit: where every estimate is recorded (empty: nowhere)
   std::string config_problem_;  // set once in onInit (before any callback) when fusion_config or a
                                 // merge parameter is refused
   std::vector<std::string> share_topics_;  // resolved: plain and compressed

@@ -1,12 +1,16 @@
 // mrslam_merge: offline map fusion of map_server maps, no ROS master needed.
 //
-//   mrslam_merge [--json] [-o merged.yaml [--png]] [--config fusion.yaml] A.yaml B.yaml [C.yaml ...]
+//   mrslam_merge [--json] [-o merged.yaml [--png]] [--config fusion.yaml] [--held X,Y,YAW]
+//                A.yaml B.yaml [C.yaml ...]
 //
 // -o writes the merged map (map_server yaml + pgm, or png with --png) in A's frame;
 // --octomap writes it as an OctoMap (octomap::OcTree binary .bt, walls as 0.5 m columns).
 // Every map after the first is aligned to A. With three or more maps, a map that does not
 // match A directly is chained through any map already accepted (B in A and C in B give C
-// in A). Exit status: 0 when the run completed (rejected merges included), 2 on bad input.
+// in A). --held gives the pose of B's frame in A's (m, m, rad) that a merger held when it
+// estimated B against A: the search verifies it too, so a merger's recorded estimate
+// (estimate_record.h) replays exactly. Exit status: 0 when the run completed (rejected merges included), 2 on bad input.
+#include <cmath>
 #include <cstdio>
 #include <opencv2/core/utils/logger.hpp>
 #include <iostream>
@@ -28,7 +32,7 @@ namespace fusion = mrslam::fusion;
 
 constexpr const char* kUsage =
     "usage: mrslam_merge [--json] [-o merged.yaml [--png]] [--octomap merged.bt] [--config fusion.yaml] [--timing]\n"
-    "                    A.yaml B.yaml [C.yaml ...]\n";
+    "                    [--held X,Y,YAW] A.yaml B.yaml [C.yaml ...]\n";
 
 int badInput(const std::string& message) {
   std::cerr << "mrslam_merge: " << message << "\n";
@@ -45,6 +49,16 @@ std::string jsonString(const std::string& s) {
   return out + "\"";
 }
 
+// "X,Y,YAW" as written by estimate_record (three numbers, nothing else), or nothing.
+std::optional<Pose2D> parsePose(const std::string& text) {
+  Pose2D pose;
+  int used = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%n", &pose.x, &pose.y, &pose.yaw, &used) != 3 ||
+      used != static_cast<int>(text.size()) || !std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw))
+    return std::nullopt;
+  return pose;
+}
+
 struct Outcome {
   std::optional<Pose2D> pose_in_a;  // set once accepted (directly or through a chain)
   fusion::FusionResult last;        // the latest attempt (for V, time and the reason)
@@ -59,6 +73,7 @@ int main(int argc, char** argv) {
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   bool json = false, png = false, timing = false;
   std::string output, config, octomap;
+  std::optional<Pose2D> held;  // of the second map in the first's frame
   std::vector<std::string> files;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -71,6 +86,9 @@ int main(int argc, char** argv) {
     } else if (arg == "-o" || arg == "--config" || arg == "--octomap") {
       if (i + 1 >= argc) return badInput(arg + " needs a file name\n" + kUsage);
       (arg == "-o" ? output : arg == "--config" ? config : octomap) = argv[++i];
+    } else if (arg == "--held") {
+      if (i + 1 >= argc || !(held = parsePose(argv[++i])))
+        return badInput("--held needs a pose X,Y,YAW (m, m, rad)\n" + std::string(kUsage));
     } else if (arg == "-h" || arg == "--help") {
       std::cout << kUsage;
       return 0;
@@ -115,7 +133,7 @@ int main(int argc, char** argv) {
         tried[i][j] = true;
         fusion::FusionResult r;
         try {
-          r = fusion::alignMaps(maps[j], maps[i], params);
+          r = fusion::alignMaps(maps[j], maps[i], params, i == 1 && j == 0 ? held : std::nullopt);
         } catch (const std::exception& e) {
           return badInput(files[i] + ": " + e.what());
         }

@@ -1,0 +1,67 @@
+#include "mrslam/fusion/estimate_record.h"
+
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "mrslam/map_io.h"
+
+namespace mrslam::fusion {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool isPlainName(const std::string& name) {
+  if (name.empty()) return false;
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
+  return true;
+}
+
+// One line of estimates.tsv: reasons are free text, so tabs and line breaks become spaces.
+std::string recordLine(const std::optional<Pose2D>& held, const FusionResult& result, double wall_s) {
+  char numbers[256];
+  std::snprintf(numbers, sizeof(numbers), "%.3f\t%d\t%.17g\t%.17g\t%.17g\t%.4f\t%.2f\t", wall_s,
+                result.accepted ? 1 : 0, result.pose.x, result.pose.y, result.pose.yaw,
+                result.verdict.acceptance, result.verdict.shared_wall_m);
+  std::string line = numbers;
+  if (held) {
+    char pose[96];
+    std::snprintf(pose, sizeof(pose), "%.17g,%.17g,%.17g", held->x, held->y, held->yaw);
+    line += pose;
+  } else {
+    line += "-";
+  }
+  std::string reason = result.verdict.reason.empty() ? "-" : result.verdict.reason;
+  for (char& c : reason)
+    if (c == '\t' || c == '\n' || c == '\r') c = ' ';
+  return line + "\t" + reason + "\n";
+}
+
+}  // namespace
+
+void recordEstimate(const std::string& dir, const std::string& name, const OccupancyGrid& a,
+                    const OccupancyGrid& b, const std::optional<Pose2D>& held, const FusionResult& result,
+                    double wall_s) {
+  if (!isPlainName(name)) throw std::invalid_argument("estimate record name '" + name + "' is not [A-Za-z0-9_]+");
+  const fs::path where = fs::path(dir) / name;
+  std::error_code error;
+  fs::create_directories(where, error);
+  if (error) throw MapIoError(where.string() + ": cannot create the record directory: " + error.message());
+  saveMap(a, (where / "latest_a.yaml").string());
+  saveMap(b, (where / "latest_b.yaml").string());
+  if (result.accepted) {
+    saveMap(a, (where / "accepted_a.yaml").string());
+    saveMap(b, (where / "accepted_b.yaml").string());
+  }
+  const fs::path table = where / "estimates.tsv";
+  const bool fresh = !fs::exists(table);
+  std::ofstream out(table, std::ios::app);
+  if (fresh) out << kEstimateRecordHeader;
+  out << recordLine(held, result, wall_s);
+  if (!out) throw MapIoError(table.string() + ": cannot append the estimate");
+}
+
+}  // namespace mrslam::fusion
