@@ -32,6 +32,8 @@ struct VerificationParams {
   double distinct_shift_m = 1.0;       // displacement used for distinctiveness
   double distinct_turn_deg = 3.0;      // rotation used for distinctiveness
   double max_ambiguity = 0.95;         // best distinct alternative's score / best score
+  double ambiguity_weight_factor = 3.0;  // rivals are also compared with the disagreement weight
+                                         // this many times w (set-aside finals only so)
   double max_seen_through = 0.5;       // free space behind the other map's walls (see_through.h)
 };
 

@@ -92,6 +92,7 @@ std::map<std::string, Field> fields(FusionParams& p) {
       {"distinct_shift_m", field(v.distinct_shift_m, 0, kBig)},
       {"distinct_turn_deg", field(v.distinct_turn_deg, 0, 180)},
       {"max_ambiguity", field(v.max_ambiguity, 0, kBig)},
+      {"ambiguity_weight_factor", field(v.ambiguity_weight_factor, 1, kBig)},
       {"max_seen_through", field(v.max_seen_through, 0, 1)},
   };
 }

@@ -273,11 +273,12 @@ int bringBestPlausibleToFront(std::vector<SearchResult>& finals, double w, const
 
 // The best distinct plausible alternative: a pose elsewhere that explains the maps nearly as
 // well means we cannot tell where B is (symmetric buildings, repeated rooms). The comparison is
-// made with the disagreement weight w and again with 2w: a choice that flips when conflicts
-// count double (a small clean overlap against a larger one with a few percent of conflicts,
-// e.g. ACES and its half-turn twin) is not a choice we can stand behind. A set-aside final is a
-// rival only with 2w: a twin that loses on its own counts yet still outscores the answer when
-// conflicts count double is one we cannot rule out with confidence either.
+// made with the disagreement weight w and again with k w (ambiguity_weight_factor): a choice
+// that flips when conflicts count k times is not a choice we can stand behind (a small clean
+// overlap against a larger one with a few percent of conflicts, e.g. ACES and its half-turn
+// twin, or Intel's two mirrored arcs). A set-aside final is a rival only with k w: a twin that
+// loses on its own counts yet still outscores the answer when conflicts count k times is one we
+// cannot rule out with confidence either.
 template <typename Plausible>
 double ambiguity(const std::vector<SearchResult>& finals, double resolution, const FusionParams& params,
                  const Plausible& plausible) {
@@ -290,7 +291,7 @@ double ambiguity(const std::vector<SearchResult>& finals, double resolution, con
         sameHypothesis(f.transform, best.transform, distinct_cells, params.verification.distinct_turn_deg * kDeg))
       continue;
     const bool contradicts_maps = !plausible(f);
-    for (const double weight : {w, 2 * w}) {
+    for (const double weight : {w, params.verification.ambiguity_weight_factor * w}) {
       if (contradicts_maps && weight == w) continue;
       const double best_score = best.counts.score(weight);
       worst = std::max(worst, best_score > 0 ? f.counts.score(weight) / best_score : 1.0);
