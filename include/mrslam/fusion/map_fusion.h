@@ -110,9 +110,10 @@ std::string fusionInputProblem(const OccupancyGrid& a, const OccupancyGrid& b, c
 // The answer is the best-scoring final pose that passes the checks on its own counts; poses
 // that fail them are neither the answer nor rivals in the ambiguity check.
 // `held`: a pose of B's frame accepted earlier (the merger's current transform). It joins the
-// search's finals at full resolution and is ranked and verified exactly like them, so a
-// re-estimate on grown maps still confirms it when the coarse search happens to miss it, and
-// never accepts it when the grown maps contradict it.
+// search's finals at full resolution and is ranked and verified like them, so a re-estimate on
+// grown maps still confirms it when the coarse search happens to miss it, and never accepts it
+// when the grown maps contradict it. One check is not asked of it again: the share of the
+// smaller map's walls, which falls as the robots map apart while the overlap stays.
 FusionResult alignMaps(const OccupancyGrid& a, const OccupancyGrid& b, const FusionParams& params,
                        const std::optional<Pose2D>& held = std::nullopt);
 

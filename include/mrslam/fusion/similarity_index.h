@@ -45,6 +45,7 @@ struct SimilarityCounts {
 struct SearchResult {
   CellTransform transform;
   SimilarityCounts counts;
+  bool held = false;  // the merger's current transform, tracked (map_fusion.h, alignMaps)
 };
 
 class SimilarityIndex {
