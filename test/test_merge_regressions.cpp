@@ -152,3 +152,17 @@ TEST(MergeRegressions, AHeldTransformIsNotRevokedForAShareThatFellAsTheMapsGrewA
   EXPECT_FALSE(off.accepted && centreError(b, off.pose, held).first > 10) << "a held pose 3 m off was confirmed";
 }
 
+// The mirrored arcs again, in a relay estimate of the same run (robot5 aligning robot3's map to
+// robot2's): accepted at V 0.971, because the right pose, a clean overlay half the twin's size,
+// was dropped on the way down the pyramid as "under half of the best" at w, though at 3w it
+// beats the twin. Rejected, or the right heading (the merger's first estimate of this pair,
+// V 0.996, -3.0278 rad; the twin is 180 degrees away).
+TEST(MergeRegressions, TheRightPoseOfMirroredArcsIsNotDroppedBeforeTheAmbiguityCheck) {
+  const OccupancyGrid a = loadMap(recordedMap("robot2_robot3_relay_twin", "a"));
+  const OccupancyGrid b = loadMap(recordedMap("robot2_robot3_relay_twin", "b"));
+  const fusion::FusionResult r = fusion::alignMaps(a, b, fusion::FusionParams{});
+  if (r.accepted) {
+    EXPECT_LE(std::abs(Pose2D::normalizeAngle(r.pose.yaw + 3.0278)) * 180 / M_PI, 1.0) << r.pose.yaw;
+  }
+}
+

@@ -229,13 +229,18 @@ std::unique_ptr<SimilarityIndex> refineDownThePyramid(const Images& im, const Fu
     finest = std::make_unique<SimilarityIndex>(im.pyr_a[level], im.pyr_b[level], params.max_free_points, w);
     const double step = params.coarse_rotation_step_deg * kDeg / std::pow(2.0, im.coarse - level);
     for (SearchResult& f : finals) f = finest->search(f.transform.scaled(0.5), params.refine_radius, step, 1);
-    // A survivor scoring under half of the best can neither win nor make the pose ambiguous
-    // (max_ambiguity is far above that): stop spending finer levels on it.
-    double top = -1e300;
-    for (const SearchResult& f : finals) top = std::max(top, f.counts.score(w));
-    finals.erase(std::remove_if(finals.begin(), finals.end(),
-                                [&](const SearchResult& f) { return top > 0 && f.counts.score(w) < kKeepShareOfBest * top; }),
-                 finals.end());
+    // A survivor scoring under half of the best, with the weights the ambiguity check compares
+    // at (w and k w), can neither win nor make the pose ambiguous (max_ambiguity is far above
+    // that): stop spending finer levels on it. At w alone a small clean overlay at the right pose
+    // fell here behind a twin twice its size that k w rejects (Intel's mirrored arcs).
+    const double kw = params.verification.ambiguity_weight_factor * w;
+    double top = -1e300, top_kw = -1e300;
+    for (const SearchResult& f : finals) top = std::max(top, f.counts.score(w)), top_kw = std::max(top_kw, f.counts.score(kw));
+    auto behind = [&](const SearchResult& f) {
+      return top > 0 && f.counts.score(w) < kKeepShareOfBest * top &&
+             (top_kw <= 0 || f.counts.score(kw) < kKeepShareOfBest * top_kw);
+    };
+    finals.erase(std::remove_if(finals.begin(), finals.end(), behind), finals.end());
   }
   return finest;
 }
