@@ -218,16 +218,16 @@ int main(int argc, char** argv) {
     if (key.second.rfind("robot", 0) != 0) continue;
     ++total;
     const int peer = std::atoi(key.second.c_str() + 5);
+    // The truth on every line, as x,y,yaw of the peer's map frame in ours: any pair can be
+    // replayed on the maps its merger recorded (record_dir) and checked against it.
+    std::string truth = "unknown";
+    if (world[key.first] && world.count(peer) && world[peer]) {
+      const mrslam::Pose2D t = mrslam::bench::peerFrameError(mrslam::Pose2D{}, *world[key.first], *world[peer], tracks[peer]).truth;
+      char text[96];
+      std::snprintf(text, sizeof(text), "%.4f,%.4f,%.5f", t.x, t.y, t.yaw);
+      truth = text;
+    }
     if (!value.accepted) {
-      // The truth too, as x,y,yaw of the peer's map frame in ours: a pair missed can be replayed
-      // on the maps its merger recorded (record_dir) and the right pose checked.
-      std::string truth = "unknown";
-      if (world[key.first] && world.count(peer) && world[peer]) {
-        const mrslam::Pose2D t = mrslam::bench::peerFrameError(mrslam::Pose2D{}, *world[key.first], *world[peer], tracks[peer]).truth;
-        char text[96];
-        std::snprintf(text, sizeof(text), "%.4f,%.4f,%.5f", t.x, t.y, t.yaw);
-        truth = text;
-      }
       std::printf("pair robot%d <- %s accepted=0 stale=%d heard_s_ago=%.1f link_silent_s=%.1f attempts=%s relays=%s "
                   "truth=%s why=%s\n",
                   key.first, key.second.c_str(), value.stale ? 1 : 0, value.heard_s_ago, value.link_silent,
@@ -251,10 +251,10 @@ int main(int argc, char** argv) {
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
     std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d heard_s_ago=%.1f link_silent_s=%.1f "
-                "deg=%.2f cells=%.2f truth_bar_cells=%.2f first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
+                "deg=%.2f cells=%.2f truth_bar_cells=%.2f truth=%s first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
                 key.first, key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.heard_s_ago,
                 value.link_silent, e.yaw_deg, cells,
-                truth_bar, value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
+                truth_bar, truth.c_str(), value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
                 value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
     relayed += !value.via.empty();
     if (right) {
