@@ -10,7 +10,6 @@
 // in A). --held gives the pose of B's frame in A's (m, m, rad) that a merger held when it
 // estimated B against A: the search verifies it too, so a merger's recorded estimate
 // (estimate_record.h) replays exactly. Exit status: 0 when the run completed (rejected merges included), 2 on bad input.
-#include <cmath>
 #include <cstdio>
 #include <opencv2/core/utils/logger.hpp>
 #include <iostream>
@@ -18,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "mrslam/fusion/estimate_record.h"
 #include "mrslam/fusion/fusion_params_io.h"
 #include "mrslam/fusion/grid_merge.h"
 #include "mrslam/fusion/map_fusion.h"
@@ -49,16 +49,6 @@ std::string jsonString(const std::string& s) {
   return out + "\"";
 }
 
-// "X,Y,YAW" as written by estimate_record (three numbers, nothing else), or nothing.
-std::optional<Pose2D> parsePose(const std::string& text) {
-  Pose2D pose;
-  int used = 0;
-  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%n", &pose.x, &pose.y, &pose.yaw, &used) != 3 ||
-      used != static_cast<int>(text.size()) || !std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw))
-    return std::nullopt;
-  return pose;
-}
-
 struct Outcome {
   std::optional<Pose2D> pose_in_a;  // set once accepted (directly or through a chain)
   fusion::FusionResult last;        // the latest attempt (for V, time and the reason)
@@ -87,7 +77,7 @@ int main(int argc, char** argv) {
       if (i + 1 >= argc) return badInput(arg + " needs a file name\n" + kUsage);
       (arg == "-o" ? output : arg == "--config" ? config : octomap) = argv[++i];
     } else if (arg == "--held") {
-      if (i + 1 >= argc || !(held = parsePose(argv[++i])))
+      if (i + 1 >= argc || !(held = fusion::parsePoseText(argv[++i])))
         return badInput("--held needs a pose X,Y,YAW (m, m, rad)\n" + std::string(kUsage));
     } else if (arg == "-h" || arg == "--help") {
       std::cout << kUsage;

@@ -22,6 +22,11 @@ namespace mrslam::fusion {
 constexpr const char* kEstimateRecordHeader =
     "wall_s\taccepted\tx\ty\tyaw\tV\tshared_wall_m\theld\treason\n";
 
+// A pose as estimates.tsv and the tools write it, "X,Y,YAW" (m, m, rad, to the bit), and back:
+// nothing when the text is not three finite numbers and nothing else.
+std::string poseText(const Pose2D& pose);
+std::optional<Pose2D> parsePoseText(const std::string& text);
+
 // Writes the record of one estimate of B in A (`held`: the pose passed to alignMaps). Throws
 // MapIoError or std::invalid_argument (a NAME that is not [A-Za-z0-9_]+) naming the problem.
 void recordEstimate(const std::string& dir, const std::string& name, const OccupancyGrid& a,

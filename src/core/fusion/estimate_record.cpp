@@ -1,6 +1,7 @@
 #include "mrslam/fusion/estimate_record.h"
 
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -26,14 +27,7 @@ std::string recordLine(const std::optional<Pose2D>& held, const FusionResult& re
   std::snprintf(numbers, sizeof(numbers), "%.3f\t%d\t%.17g\t%.17g\t%.17g\t%.4f\t%.2f\t", wall_s,
                 result.accepted ? 1 : 0, result.pose.x, result.pose.y, result.pose.yaw,
                 result.verdict.acceptance, result.verdict.shared_wall_m);
-  std::string line = numbers;
-  if (held) {
-    char pose[96];
-    std::snprintf(pose, sizeof(pose), "%.17g,%.17g,%.17g", held->x, held->y, held->yaw);
-    line += pose;
-  } else {
-    line += "-";
-  }
+  const std::string line = numbers + (held ? poseText(*held) : "-");
   std::string reason = result.verdict.reason.empty() ? "-" : result.verdict.reason;
   for (char& c : reason)
     if (c == '\t' || c == '\n' || c == '\r') c = ' ';
@@ -41,6 +35,22 @@ std::string recordLine(const std::optional<Pose2D>& held, const FusionResult& re
 }
 
 }  // namespace
+
+std::string poseText(const Pose2D& pose) {
+  char text[96];
+  std::snprintf(text, sizeof(text), "%.17g,%.17g,%.17g", pose.x, pose.y, pose.yaw);
+  return text;
+}
+
+std::optional<Pose2D> parsePoseText(const std::string& text) {
+  Pose2D pose;
+  int used = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%n", &pose.x, &pose.y, &pose.yaw, &used) != 3 ||
+      used != static_cast<int>(text.size()) || !std::isfinite(pose.x) || !std::isfinite(pose.y) ||
+      !std::isfinite(pose.yaw))
+    return std::nullopt;
+  return pose;
+}
 
 void recordEstimate(const std::string& dir, const std::string& name, const OccupancyGrid& a,
                     const OccupancyGrid& b, const std::optional<Pose2D>& held, const FusionResult& result,

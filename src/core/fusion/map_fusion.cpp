@@ -235,7 +235,10 @@ std::unique_ptr<SimilarityIndex> refineDownThePyramid(const Images& im, const Fu
     // fell here behind a twin twice its size that k w rejects (Intel's mirrored arcs).
     const double kw = params.verification.ambiguity_weight_factor * w;
     double top = -1e300, top_kw = -1e300;
-    for (const SearchResult& f : finals) top = std::max(top, f.counts.score(w)), top_kw = std::max(top_kw, f.counts.score(kw));
+    for (const SearchResult& f : finals) {
+      top = std::max(top, f.counts.score(w));
+      top_kw = std::max(top_kw, f.counts.score(kw));
+    }
     auto behind = [&](const SearchResult& f) {
       return top > 0 && f.counts.score(w) < kKeepShareOfBest * top &&
              (top_kw <= 0 || f.counts.score(kw) < kKeepShareOfBest * top_kw);
