@@ -289,11 +289,11 @@ TEST(EstimateRecord, AMergersRecordReplaysOfflineToTheSameEstimate) {
   const Pose2D held = truth.compose(Pose2D{0.05, -0.05, 0.5 * kDeg});
   const FusionResult accepted = alignMaps(maps.a, maps.b, FusionParams{}, held);
   ASSERT_TRUE(accepted.accepted) << accepted.verdict.reason;
-  recordEstimate(dir.string(), "robot2", maps.a, maps.b, held, accepted, 100.0);
+  recordEstimate(dir.string(), "robot2", "", maps.a, maps.b, held, accepted, 100.0);
   const OccupancyGrid other = loadMap(test::referenceMap("freiburg-079"));
   const FusionResult rejected = alignMaps(other, maps.b, FusionParams{});
   ASSERT_FALSE(rejected.accepted);
-  recordEstimate(dir.string(), "robot2", other, maps.b, std::nullopt, rejected, 101.0);
+  recordEstimate(dir.string(), "robot2", "", other, maps.b, std::nullopt, rejected, 101.0);
 
   std::ifstream table(dir / "robot2" / "estimates.tsv");
   std::vector<std::string> lines;
@@ -328,7 +328,19 @@ TEST(EstimateRecord, AMergersRecordReplaysOfflineToTheSameEstimate) {
   EXPECT_NE(replay_rejected.output.find("\"accepted\": false"), std::string::npos) << replay_rejected.output;
   EXPECT_NE(replay_rejected.output.find(rejected.verdict.reason), std::string::npos) << replay_rejected.output;
 
-  EXPECT_THROW(recordEstimate(dir.string(), "../robot2", maps.a, maps.b, held, accepted, 102.0), std::invalid_argument);
+  EXPECT_THROW(recordEstimate(dir.string(), "../robot2", "", maps.a, maps.b, held, accepted, 102.0), std::invalid_argument);
+  EXPECT_THROW(recordEstimate(dir.string(), "robot2", "..", maps.a, maps.b, held, accepted, 102.0), std::invalid_argument);
+  // A relay's record lies in a subfolder of the peer's: a peer whose id holds "_via_" cannot
+  // write over it (ids robot2 via robot3 and "robot2_via_robot3" used to share one folder).
+  recordEstimate(dir.string(), "robot2", "robot3", other, maps.b, std::nullopt, rejected, 103.0);
+  recordEstimate(dir.string(), "robot2_via_robot3", "", maps.a, maps.b, held, accepted, 104.0);
+  for (const fs::path& table : {dir / "robot2" / "via_robot3" / "estimates.tsv", dir / "robot2_via_robot3" / "estimates.tsv"}) {
+    std::ifstream in(table);
+    size_t count = 0;
+    for (std::string line; std::getline(in, line);) ++count;
+    EXPECT_EQ(count, 2u) << table << ": the header and its own estimate";
+  }
+  EXPECT_EQ(loadMap((dir / "robot2" / "via_robot3" / "latest_a.yaml").string()).width, other.width);
   EXPECT_NE(run("--held 1,2 " + record + "/latest_a.yaml " + record + "/latest_b.yaml").status, 0);
   fs::remove_all(dir);
 }

@@ -479,7 +479,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       forgetPeer(peer_id, std::string("fusion failed: ") + e.what());
       return;
     }
-    record(peer_id, *own, *peer_map, held, result);
+    record(peer_id, "", *own, *peer_map, held, result);
     std::lock_guard<std::mutex> lock(mutex_);
     if (!registry_->peers().count(peer_id)) return;
     const bool had = registry_->peers().at(peer_id).accepted.has_value();
@@ -517,7 +517,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
       recordFault("relay " + peer_id + " via " + via_id, e.what());
       return;
     }
-    record(peer_id + "_via_" + via_id, *via_map, *peer_map, held, result);
+    record(peer_id, via_id, *via_map, *peer_map, held, result);
     std::lock_guard<std::mutex> lock(mutex_);
     if (registry_->applyRelayEstimate(peer_id, via_id, result, ros::Time::now().toSec(), ros::WallTime::now().toSec()))
       merged_due_ = true;
@@ -527,11 +527,11 @@ class MapMergeNodelet : public nodelet::Nodelet {
   // With record_dir set, the maps and outcome of every estimate (estimate_record.h), so that
   // any merge this robot made or refused replays offline with mrslam_merge. A full disk costs
   // the records, never the merge.
-  void record(const std::string& name, const OccupancyGrid& a, const OccupancyGrid& b,
+  void record(const std::string& peer, const std::string& via, const OccupancyGrid& a, const OccupancyGrid& b,
               const std::optional<Pose2D>& held, const fusion::FusionResult& result) {
     if (record_dir_.empty()) return;
     try {
-      fusion::recordEstimate(record_dir_, name, a, b, held, result, ros::WallTime::now().toSec());
+      fusion::recordEstimate(record_dir_, peer, via, a, b, held, result, ros::WallTime::now().toSec());
     } catch (const std::exception& e) {
       NODELET_ERROR_THROTTLE(60.0, "record_dir: %s; merging goes on without records", e.what());
     }

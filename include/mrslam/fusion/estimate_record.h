@@ -3,10 +3,11 @@
 // The fusion reads nothing of a map but its structure and its cells' trinary classes
 // (toTernary: map_saver's rule), which a map_server file keeps, so the replay
 //
-//   mrslam_merge [--held X,Y,YAW] DIR/NAME/latest_a.yaml DIR/NAME/latest_b.yaml
+//   mrslam_merge [--held X,Y,YAW] DIR/PEER/latest_a.yaml DIR/PEER/latest_b.yaml
 //
-// gives the estimate the merger got. Files under DIR/NAME (NAME: the peer's id, or
-// "<peer>_via_<via>" for a relay):
+// gives the estimate the merger got. Files under DIR/PEER for the peer's own estimates, and
+// under DIR/PEER/via_VIA for its relays through VIA (a subfolder: every id is a plain name, so a
+// relay's folder cannot be another peer's, as "<peer>_via_<via>" could with ids holding "_via_"):
 //   latest_a.yaml, latest_b.yaml      A (our map, or the via's) and B (the peer's) of the newest estimate
 //   accepted_a.yaml, accepted_b.yaml  the same for the newest accepted estimate
 //   estimates.tsv                     one line per estimate (columns in kEstimateRecordHeader)
@@ -27,9 +28,10 @@ constexpr const char* kEstimateRecordHeader =
 std::string poseText(const Pose2D& pose);
 std::optional<Pose2D> parsePoseText(const std::string& text);
 
-// Writes the record of one estimate of B in A (`held`: the pose passed to alignMaps). Throws
-// MapIoError or std::invalid_argument (a NAME that is not [A-Za-z0-9_]+) naming the problem.
-void recordEstimate(const std::string& dir, const std::string& name, const OccupancyGrid& a,
+// Writes the record of one estimate of the peer's map B in A (A: our map, or for a relay the map
+// of `via`; `via` empty for a direct estimate; `held`: the pose passed to alignMaps). Throws
+// MapIoError or std::invalid_argument (an id that is not [A-Za-z0-9_]+) naming the problem.
+void recordEstimate(const std::string& dir, const std::string& peer, const std::string& via, const OccupancyGrid& a,
                     const OccupancyGrid& b, const std::optional<Pose2D>& held, const FusionResult& result,
                     double wall_s);
 

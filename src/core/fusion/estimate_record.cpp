@@ -52,11 +52,13 @@ std::optional<Pose2D> parsePoseText(const std::string& text) {
   return pose;
 }
 
-void recordEstimate(const std::string& dir, const std::string& name, const OccupancyGrid& a,
+void recordEstimate(const std::string& dir, const std::string& peer, const std::string& via, const OccupancyGrid& a,
                     const OccupancyGrid& b, const std::optional<Pose2D>& held, const FusionResult& result,
                     double wall_s) {
-  if (!isPlainName(name)) throw std::invalid_argument("estimate record name '" + name + "' is not [A-Za-z0-9_]+");
-  const fs::path where = fs::path(dir) / name;
+  if (!isPlainName(peer)) throw std::invalid_argument("estimate record id '" + peer + "' is not [A-Za-z0-9_]+");
+  if (!via.empty() && !isPlainName(via))
+    throw std::invalid_argument("estimate record id '" + via + "' is not [A-Za-z0-9_]+");
+  const fs::path where = via.empty() ? fs::path(dir) / peer : fs::path(dir) / peer / ("via_" + via);
   std::error_code error;
   fs::create_directories(where, error);
   if (error) throw MapIoError(where.string() + ": cannot create the record directory: " + error.message());
