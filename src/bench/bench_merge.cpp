@@ -348,8 +348,8 @@ int main(int argc, char** argv) {
   using Tool = std::function<Outcome(const Pair&)>;
   std::vector<std::pair<std::string, Tool>> tools = {
       {"mrslam", [&](const Pair& p) {
-         // --repeat N: the fastest of N calls (a virtual machine's timing varies by 10 % from
-         // one run to the next); every call must give the same answer.
+         // --repeat N: the fastest of N calls (on a virtual machine two runs' medians differed by
+         // a fifth); every call must give the same answer.
          auto r = fusion::alignMaps(*p.a, *p.b, params);
          for (int k = 1; k < repeat; ++k) {
            auto again = fusion::alignMaps(*p.a, *p.b, params);
