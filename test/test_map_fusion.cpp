@@ -43,8 +43,9 @@ test::RunResult run(const std::string& args) {
   return test::runCommand(std::string(MRSLAM_MERGE_BIN) + " " + args);
 }
 
+// Inside the test process's own scratch folder (test_main.cpp), which is removed at the end.
 fs::path tempDir() {
-  fs::path dir = fs::temp_directory_path() / ("mrslam_fusion_test_" + std::to_string(::getpid()));
+  fs::path dir = fs::path(::testing::TempDir()) / "map_fusion";
   fs::create_directories(dir);
   return dir;
 }

@@ -14,8 +14,9 @@ using namespace mrslam;
 
 namespace {
 
+// Inside the test process's own scratch folder (test_main.cpp), which is removed at the end.
 fs::path tempDir() {
-  fs::path dir = fs::temp_directory_path() / ("mrslam_test_" + std::to_string(::getpid()));
+  fs::path dir = fs::path(::testing::TempDir()) / "map_io";
   fs::create_directories(dir);
   return dir;
 }
