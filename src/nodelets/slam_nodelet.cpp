@@ -486,6 +486,7 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("odometry jumps", s.odometry_jumps);
     status.add("odometry slips", s.odometry_slips);
     status.add("odometry increments driven backwards", s.odometry_reversals);
+    status.add("turns the odometry missed", s.odometry_missed_turns);
     status.add("scans placed by the correlative search alone", s.seeds_alone);
     status.add("correlative searches given up", s.searches_given_up);
     status.add("graph nodes", s.nodes);

@@ -61,6 +61,12 @@ struct SeedParams {
   double min_penalty_along = 0.3;        // the along-track factor's floor (min_penalty: across)
   double jump_margin = 0.15;     // a doubted increment is judged a jump (no motion) only when the
                                  // scan scores this much higher there than where odometry says
+  double jump_min_score = 0.2;   // ...and fits the local map at rest at least this well
+  double missed_turn_min_score = 0.3;  // without a gyro, where the scan fits less than lost_below_score
+                                       // at the prediction and nowhere in the window, it is searched
+                                       // at every heading within max_xy and taken where it fits this
+                                       // well (0: off)...
+  double missed_turn_max_rival = 0.75; // ...and no pose elsewhere scores this share of it
   double slip_margin = 0.1;      // a match the EKF gate refuses is still taken when the scan
                                  // scores this much higher there than at the prediction
   double reverse_margin = 0.15;  // the odometry's translation is taken reversed (odometry that
@@ -200,6 +206,7 @@ struct ScanStep {
   bool odometry_jump = false;     // ...and the scan agreed better with no motion
   bool odometry_slipped = false;  // a gated match won on the scan's evidence
   bool odometry_reversed = false; // the robot drove the increment backwards, not forwards
+  bool odometry_missed_turn = false;  // found at a heading the odometry's window did not reach
   bool seed_alone = false;      // ICP did not confirm the seed, which still beat the prediction clearly
   int searches_given_up = 0;    // correlative searches that hit kMaxEvaluations (no answer from them)
   bool new_node = false;        // the scan became a pose-graph node
@@ -215,6 +222,7 @@ struct ScanStep {
 struct FrontEndStats {
   size_t scans = 0, used = 0, rejected = 0, matched = 0, gated = 0, seeded = 0;
   size_t odometry_doubted = 0, odometry_jumps = 0, odometry_slips = 0, odometry_reversals = 0;
+  size_t odometry_missed_turns = 0;
   size_t seeds_alone = 0;  // matched by the correlative seed alone (ICP could not confirm it)
   size_t nodes = 0, submaps = 0, submaps_redrawn = 0;
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum

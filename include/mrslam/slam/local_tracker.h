@@ -61,6 +61,9 @@ class LocalTracker {
   bool doubted(const Pose2D& increment, double stamp) const;
   // The prior of a seed for the increment `u` driven from `before`.
   SeedPrior seedPrior(const Pose2D& before, const Pose2D& u) const;
+  // The scan searched for at every heading within `max_xy` of `guess`, taken only where it fits
+  // well and well ahead of any other pose (seed.missed_turn_*).
+  std::optional<CorrelativeMatch> missedTurn(const Points2& points, const Pose2D& guess, double max_xy, const SeedPrior& prior);
   // Whether ICP, weak on its own, landed where the seed put the scan.
   bool seedConfirms(const ScanStep& step) const;
   // Whether a seed ICP did not confirm still scored clearly above the prediction.

@@ -27,6 +27,7 @@ void countStep(const ScanStep& step, FrontEndStats& stats) {
   stats.odometry_jumps += step.odometry_jump;
   stats.odometry_slips += step.odometry_slipped;
   stats.odometry_reversals += step.odometry_reversed;
+  stats.odometry_missed_turns += step.odometry_missed_turn;
   stats.seeds_alone += step.seed_alone;
   stats.searches_given_up += step.searches_given_up;
 }
