@@ -131,7 +131,8 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   out << ", " << s.matched << " matched, " << s.rejected << " rejected";
   if (!s.last_problem.empty() && s.rejected) out << " (last: " << s.last_problem << ")";
   out << "; odometry doubted " << s.odometry_doubted << ", jumps " << s.odometry_jumps << ", slips " << s.odometry_slips
-      << ", driven backwards " << s.odometry_reversals << ", turns it missed " << s.odometry_missed_turns << "; " << s.seeds_alone << " placed by the correlative search alone";
+      << ", driven backwards " << s.odometry_reversals << ", turns it missed " << s.odometry_missed_turns << "; "
+      << s.seeds_alone << " placed by the correlative search alone";
   if (s.searches_given_up)
     out << "; " << s.searches_given_up << " correlative searches given up (the map scores alike everywhere: a lost track?)";
   if (robot.name() == "graph")

@@ -56,8 +56,10 @@ class LocalTracker {
   SeedPrior noOdometryPrior() const;
   // The local map's likelihood grid, rebuilt when the local map changed.
   const LikelihoodGrid& seedGrid();
-  // The best correlative match in a window around `center`, on the local map.
-  CorrelativeMatch seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw, const SeedPrior& prior);
+  // The best correlative match in a window around `center`, on the local map. With `rival_of`,
+  // the best one at least 1 m / 5 degrees from that pose scoring `rival_min_score` (its rival).
+  CorrelativeMatch seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw, const SeedPrior& prior,
+                             const Pose2D* rival_of = nullptr, double rival_min_score = 0);
   bool doubted(const Pose2D& increment, double stamp) const;
   // The prior of a seed for the increment `u` driven from `before`.
   SeedPrior seedPrior(const Pose2D& before, const Pose2D& u) const;

@@ -58,7 +58,7 @@ constexpr size_t kStrideWarmUp = 5;
 constexpr double kStrideQuantile = 0.75;
 constexpr double kMovingStride = 0.05;  // m
 constexpr double kStoodStill = 0.1;     // m: an increment shorter than this says the robot stood
-constexpr double kRivalXy = 1.0;        // m: a rival of a turn the odometry missed lies this far...
+constexpr double kRivalXy = 1.0;        // m: a rival of a seed lies at least this far from it...
 constexpr double kRivalYaw = 0.087;     // rad: ...or this much turned (5 degrees) from it
 
 double LocalTracker::typicalStride() const {
@@ -102,13 +102,15 @@ const LikelihoodGrid& LocalTracker::seedGrid() {
 }
 
 CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& center, double xy, double yaw,
-                                         const SeedPrior& prior) {
+                                         const SeedPrior& prior, const Pose2D* rival_of, double rival_min_score) {
   seedGrid();  // brings seed_matcher_ up to date with the local map
   SearchWindow window{center, xy, yaw, prior.xy, prior.yaw, params_.seed.penalty_gain, params_.seed.min_penalty};
   window.sigma_along = prior.along;
   window.along_direction = prior.direction;
   window.min_penalty_along = params_.seed.min_penalty_along;
-  const CorrelativeMatch match = seed_matcher_->match(points, window, params_.seed.min_score);
+  const CorrelativeMatch match =
+      rival_of ? seed_matcher_->match(points, window, rival_min_score, rival_of, kRivalXy, kRivalYaw)
+               : seed_matcher_->match(points, window, params_.seed.min_score);
   searches_given_up_ += match.exhausted;
   return match;
 }
@@ -122,10 +124,7 @@ std::optional<CorrelativeMatch> LocalTracker::missedTurn(const Points2& points, 
   // A fit below missed_turn_min_score was wrong on 63 of 69 steps of the bundled and nine other
   // Radish logs at every 3rd and 5th scan, 45 of them a corridor's reversal: a corridor fits
   // itself turned round about as well, so the pose must also stand well ahead of every other.
-  SearchWindow window{guess, max_xy, M_PI, prior.xy, prior.yaw, sp.penalty_gain, sp.min_penalty};
-  const CorrelativeMatch rival = seed_matcher_->match(points, window, sp.missed_turn_max_rival * best.score, &best.pose,
-                                                      kRivalXy, kRivalYaw);
-  searches_given_up_ += rival.exhausted;
+  const CorrelativeMatch rival = seedMatch(points, guess, max_xy, M_PI, prior, &best.pose, sp.missed_turn_max_rival * best.score);
   if (rival.found || rival.exhausted) return std::nullopt;
   return best;
 }
