@@ -523,6 +523,22 @@ TEST(GraphSlam, ASlowScannerWithoutUsableTimeStampsTracksAsWithThem) {
   EXPECT_LT(without.global, with_time.global + 0.05);
 }
 
+// Odometry that says the robot stood still at every scan while it drove (Orebro's ODOM lines
+// only repeat each scan's pose): the scans overrule it on most steps, and the run says so
+// (mrslam_slam_log's warning, the SLAM nodelet's diagnostics). Intel at every 3rd scan, about a
+// metre apart as Orebro's are: with its own odometry the scans overrule it on a few steps, with
+// the odometry zeroed on most.
+TEST(GraphSlam, OdometryTheScansOverruleOnMostStepsIsReported) {
+  const RobotLog every3 = decimate(intelLog(), 3, 0);
+  RobotLog stood = every3;
+  for (LogRecord& r : stood.records) r.odometry = Pose2D{};
+  const GraphRun own = runGraph(every3, withoutGyro()), still = runGraph(stood, withoutGyro());
+  std::printf("Intel every 3rd scan: scans overruled its odometry on %zu of %zu, the odometry zeroed on %zu of %zu\n",
+              own.stats.odometryOverruled(), own.stats.used, still.stats.odometryOverruled(), still.stats.used);
+  EXPECT_FALSE(own.stats.odometryMostlyOverruled());
+  EXPECT_TRUE(still.stats.odometryMostlyOverruled());
+}
+
 // Judging by the run's strides still finds a real odometry jump without time: Intel every 3rd
 // scan (0.7-5 m a stride), its odometry reset by 20 m and 90 degrees at scan 150 while the robot
 // drove on as usual. Measured: 0.18 m clean, 0.23 m with the jump (0.049 m apart; 0.050 since

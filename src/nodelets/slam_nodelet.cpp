@@ -475,6 +475,11 @@ class SlamNodelet : public nodelet::Nodelet {
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN, printable(tf_refusals.holder) + " publishes " + odom_frame_ +
                                                                   " -> " + base_frame_ + " but use_odometry is false");
     else if (s.used > 10 && s.matched < s.used / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
+    else if (s.odometryMostlyOverruled())
+      status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "the scans overruled the odometry on " +
+                                                                  std::to_string(s.odometryOverruled()) + " of " +
+                                                                  std::to_string(s.used) + " scans: is " + odom_frame_ +
+                                                                  " this robot's wheel odometry?");
     else status.summary(diagnostic_msgs::DiagnosticStatus::OK, "tracking");
     status.add("front end", robot_ ? robot_->name() : std::string("none yet"));
     status.add("motion from", use_odometry_ ? "odometry (" + odom_frame_ + " -> " + base_frame_ + ") and the scans"
