@@ -109,7 +109,7 @@ struct GraphParams {
   double weak_edge_factor = 10.0;        // ...and the motion through it gets this many times the sigmas
   // Loop closure search: a window around the predicted pose that grows with the distance
   // travelled since the last closure (a stand-in for the pose's uncertainty).
-  double loop_min_travel = 5.0;          // m: only submaps finished at least this far back
+  double loop_min_travel = 10.0;         // m: only submaps finished at least this far back
   double loop_window_xy = 0.5;           // m either way, plus...
   double loop_window_xy_per_m = 0.05;    // ...m per m travelled since the last closure...
   double loop_window_xy_max = 5.0;       // ...at most
