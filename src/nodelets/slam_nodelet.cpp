@@ -475,7 +475,7 @@ class SlamNodelet : public nodelet::Nodelet {
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN, printable(tf_refusals.holder) + " publishes " + odom_frame_ +
                                                                   " -> " + base_frame_ + " but use_odometry is false");
     else if (s.used > 10 && s.matched < s.used / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
-    else if (s.odometryMostlyOverruled())
+    else if (s.odometryOftenOverruled())
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "the scans overruled the odometry on " +
                                                                   std::to_string(s.odometryOverruled()) + " of " +
                                                                   std::to_string(s.used) + " scans: is " + odom_frame_ +

@@ -148,7 +148,7 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   if (s.used > 10 && o.scan_matching && s.matched * 2 < s.used)
     std::cerr << "mrslam_slam_log: WARNING: most scan matches failed (" << s.matched << " of " << s.used
               << "): the trajectory is mostly odometry and the map will be smeared\n";
-  if (s.odometryMostlyOverruled())
+  if (s.odometryOftenOverruled())
     std::cerr << "mrslam_slam_log: WARNING: the scans overruled the odometry on " << s.odometryOverruled() << " of "
               << s.used << " scans (slipped, jumped or missed a turn): the log's odometry does not tell this robot's"
               << " motion, or the track is lost; check the map\n";

@@ -239,10 +239,10 @@ struct FrontEndStats {
   // (or the track is lost). The scans overrule a healthy run's odometry on a few steps: at most
   // 2.5 % of them on 38 runs of 12 logs (whole, every 3rd and every 5th scan). Orebro's ODOM
   // lines only repeat each scan's pose, so its odometry says the robot stood still: 37-60 %.
-  bool odometryMostlyOverruled() const {
+  bool odometryOftenOverruled() const {
     constexpr size_t kMinSteps = 20;         // fewer say nothing about the odometry
-    constexpr double kMostlyShare = 0.1;     // of the scans used
-    return used >= kMinSteps && static_cast<double>(odometryOverruled()) > kMostlyShare * static_cast<double>(used);
+    constexpr double kOftenShare = 0.1;     // of the scans used
+    return used >= kMinSteps && static_cast<double>(odometryOverruled()) > kOftenShare * static_cast<double>(used);
   }
 };
 
