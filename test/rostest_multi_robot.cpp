@@ -17,6 +17,7 @@
 // refused while the bag plays and reset nothing, and robot1 still merges at the truth; scans of
 // two million rays stamped far ahead are refused at once, not held while they wait for tf
 // (robot1's manager's peak memory against robot2's); no robot loses more than one of its scans.
+#include <cstdio>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <mrslam/CompressedMapShare.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -457,6 +458,13 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   ASSERT_TRUE(ros::service::call("/robot1/map_merge/export_octomap", export_call)) << "no export service";
   EXPECT_TRUE(export_call.response.success) << export_call.response.message;
   EXPECT_NE(export_call.response.message.find("leaf voxels"), std::string::npos) << export_call.response.message;
+  // The message names the file written ("PATH: N leaf voxels"): it must be there, and the test
+  // leaves nothing behind (the default path is /tmp/<robot>_merged_map.bt).
+  const std::string exported = export_call.response.message.substr(0, export_call.response.message.rfind(": "));
+  std::ifstream written(exported, std::ios::binary | std::ios::ate);
+  EXPECT_TRUE(written && written.tellg() > 0) << exported << " was not written";
+  written.close();
+  std::remove(exported.c_str());
 
   for (const auto& n : names)
     for (const auto& m : names) {
