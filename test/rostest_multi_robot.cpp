@@ -17,7 +17,6 @@
 // refused while the bag plays and reset nothing, and robot1 still merges at the truth; scans of
 // two million rays stamped far ahead are refused at once, not held while they wait for tf
 // (robot1's manager's peak memory against robot2's); no robot loses more than one of its scans.
-#include <cstdio>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <mrslam/CompressedMapShare.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -36,6 +35,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -461,10 +461,10 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   // The message names the file written ("PATH: N leaf voxels"): it must be there, and the test
   // leaves nothing behind (the default path is /tmp/<robot>_merged_map.bt).
   const std::string exported = export_call.response.message.substr(0, export_call.response.message.rfind(": "));
-  std::ifstream written(exported, std::ios::binary | std::ios::ate);
-  EXPECT_TRUE(written && written.tellg() > 0) << exported << " was not written";
-  written.close();
-  std::remove(exported.c_str());
+  std::error_code no_file;
+  const std::uintmax_t bytes = std::filesystem::file_size(exported, no_file);  // on error, no_file says so
+  EXPECT_TRUE(!no_file && bytes > 0) << exported << " was not written: " << no_file.message();
+  std::filesystem::remove(exported, no_file);
 
   for (const auto& n : names)
     for (const auto& m : names) {

@@ -60,6 +60,12 @@ class CorrelativeMatcher {
   // their own buffers.
   void refresh();
 
+  // A pose at least this far from a match (or turned this much from it) is a distinct rival of
+  // it, not the same peak: what the loop closer and the tracker's missed-turn search weigh a
+  // match against.
+  static constexpr double kRivalMinXy = 1.0;     // m
+  static constexpr double kRivalMinYaw = 0.087;  // rad (5 degrees)
+
   // The best pose in the window for `points` (in the scan frame); not found when no pose
   // scores min_score. With `excluded`, poses within `exclude_xy` m and `exclude_yaw` rad of it
   // are not candidates: the best rival elsewhere in the window (how ambiguous the match is).

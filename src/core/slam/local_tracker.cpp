@@ -58,8 +58,6 @@ constexpr size_t kStrideWarmUp = 5;
 constexpr double kStrideQuantile = 0.75;
 constexpr double kMovingStride = 0.05;  // m
 constexpr double kStoodStill = 0.1;     // m: an increment shorter than this says the robot stood
-constexpr double kRivalXy = 1.0;        // m: a rival of a seed lies at least this far from it...
-constexpr double kRivalYaw = 0.087;     // rad: ...or this much turned (5 degrees) from it
 
 double LocalTracker::typicalStride() const {
   if (strides_.empty()) return 0.0;
@@ -109,7 +107,8 @@ CorrelativeMatch LocalTracker::seedMatch(const Points2& points, const Pose2D& ce
   window.along_direction = prior.direction;
   window.min_penalty_along = params_.seed.min_penalty_along;
   const CorrelativeMatch match =
-      rival_of ? seed_matcher_->match(points, window, rival_min_score, rival_of, kRivalXy, kRivalYaw)
+      rival_of ? seed_matcher_->match(points, window, rival_min_score, rival_of, CorrelativeMatcher::kRivalMinXy,
+                                                  CorrelativeMatcher::kRivalMinYaw)
                : seed_matcher_->match(points, window, params_.seed.min_score);
   searches_given_up_ += match.exhausted;
   return match;

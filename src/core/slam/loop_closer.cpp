@@ -8,8 +8,6 @@
 namespace mrslam::slam {
 
 namespace {
-constexpr double kRivalXy = 1.0;       // m: a rival must be at least this far...
-constexpr double kRivalYaw = 0.087;    // rad: ...or turned this much (5 degrees) from the match
 constexpr double kIcpAgreeXy = 0.3;    // m: ICP may move the correlative match this far...
 constexpr double kIcpAgreeYaw = 0.087; // rad: ...and turn it this much, or the pair is rejected
 constexpr int kMaxGivenUpPerSubmap = 2;  // searches of one submap that may give up before it is left alone
@@ -94,7 +92,8 @@ std::optional<LoopClosure> LoopCloser::tryClosure(const Points2& points, const P
   }
   const double rival_floor = params_.loop_max_rival * best.score;
   const CorrelativeMatch rival =
-      m.correlative->match(points, search, rival_floor, &best.pose, kRivalXy, kRivalYaw);
+      m.correlative->match(points, search, rival_floor, &best.pose, CorrelativeMatcher::kRivalMinXy,
+                              CorrelativeMatcher::kRivalMinYaw);
   stats.searches_given_up += rival.exhausted;
   given_up_[index] += rival.exhausted;
   if (rival.found || rival.exhausted) {  // a search that gave up has not shown the match unique
