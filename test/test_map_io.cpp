@@ -1,11 +1,18 @@
 // Map I/O: map_server semantics (row order, origin, thresholds, negate, scale), round trips
 // and clear errors on bad files.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 
+#include <algorithm>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <stdexcept>
 #include <opencv2/imgcodecs.hpp>
 
+#include "mrslam/atomic_file.h"
 #include "mrslam/map_io.h"
 #include "test_data.h"
 
@@ -125,6 +132,75 @@ TEST(MapIo, HonoursNegateScaleAndRawModes) {
   // scale: p = (255 - 128) / 255 = 0.498 -> 99 * (0.498 - 0.196) / (0.65 - 0.196) = 66
   EXPECT_EQ(loadMap((dir / "scale.yaml").string()).data, (std::vector<int8_t>{100, 66, 0, 100}));
   EXPECT_EQ(loadMap((dir / "raw.yaml").string()).data, (std::vector<int8_t>{0, -1, -1, 50}));
+}
+
+std::string readAll(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// A map saved over an older one is written whole or not at all: a write that fails midway
+// (a full disk, a crash) leaves the older map as it was and no stray file beside it; a link is
+// followed, a device written in place (never replaced by a file: the tests run as root).
+TEST(MapIo, ASaveIsWholeOrNotAtAll) {
+  const fs::path dir = tempDir() / "atomic";
+  fs::create_directories(dir);
+  const OccupancyGrid grid = loadMap(test::referenceMap("intel"));
+  saveMap(grid, (dir / "map.yaml").string(), ".pgm");
+  const std::string image = readAll(dir / "map.pgm"), yaml = readAll(dir / "map.yaml");
+  ASSERT_GT(image.size(), 100000u);
+
+  // A disk that fills up while the map is saved again (a file size limit stands in for it).
+  OccupancyGrid other = grid;
+  std::fill(other.data.begin(), other.data.end(), 0);
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit limit{}, small{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &limit), 0);
+  small = limit;
+  small.rlim_cur = 20000;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::string error;
+  try {
+    saveMap(other, (dir / "map.yaml").string(), ".pgm");
+  } catch (const MapIoError& e) {
+    error = e.what();
+  }
+  ::setrlimit(RLIMIT_FSIZE, &limit);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_NE(error.find("map.pgm: write failed"), std::string::npos) << error;
+  EXPECT_TRUE(readAll(dir / "map.pgm") == image) << "the older map's image was damaged";
+
+  const auto half_then_crash = [](std::ostream& out) {
+    out << std::string(50000, 'x');
+    throw std::runtime_error("crashed midway");
+  };
+  EXPECT_THROW(writeFileAtomically((dir / "map.pgm").string(), half_then_crash), std::runtime_error);
+  EXPECT_TRUE(readAll(dir / "map.pgm") == image) << "the older map's image was damaged";
+  size_t files = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 2u) << "a temporary file was left beside the map";
+  EXPECT_EQ(loadMap((dir / "map.yaml").string()).data, grid.data);
+
+  // A map saved again replaces both files whole, with the permissions a new file gets.
+  const mode_t mask = ::umask(027);
+  saveMap(grid, (dir / "map.yaml").string(), ".pgm");
+  ::umask(mask);
+  EXPECT_TRUE(readAll(dir / "map.pgm") == image) << "the older map's image was damaged";
+  EXPECT_TRUE(readAll(dir / "map.yaml") == yaml);
+  EXPECT_EQ(fs::status(dir / "map.pgm").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+
+  // A link to a file elsewhere: the file it points to gets the content, the link stays.
+  fs::create_directories(dir / "elsewhere");
+  writeText(dir / "elsewhere" / "target.txt", "old");
+  fs::create_symlink(dir / "elsewhere" / "target.txt", dir / "link.txt");
+  writeFileAtomically((dir / "link.txt").string(), [](std::ostream& out) { out << "new"; });
+  EXPECT_TRUE(fs::is_symlink(dir / "link.txt"));
+  EXPECT_EQ(readAll(dir / "elsewhere" / "target.txt"), "new");
+
+  // A device is written in place and stays a device.
+  writeFileAtomically("/dev/null", [](std::ostream& out) { out << "nothing"; });
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
 }
 
 TEST(MapIo, BadFilesGiveErrorsNamingTheFile) {

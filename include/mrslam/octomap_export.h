@@ -9,8 +9,8 @@
 
 namespace mrslam {
 
-// Throws std::runtime_error naming the file when it cannot be written. Returns the number of
-// leaf voxels written.
+// Writes the file whole or not at all (atomic_file.h); throws std::runtime_error naming the
+// file when it cannot be written. Returns the number of leaf voxels written.
 size_t saveOctomap(const OccupancyGrid& grid, const std::string& path, double height = 0.5,
                    int occupied_threshold = 65, int free_threshold = 25);
 

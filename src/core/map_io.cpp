@@ -11,6 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mrslam/atomic_file.h"
+
 namespace mrslam {
 namespace {
 
@@ -121,17 +123,14 @@ void checkPngStructure(const std::string& path, const std::string& yaml_path) {
   }
 }
 
-// Writes to `path` whatever `write` puts on the stream, every failure (cannot open, short
-// write, flush or close) an error.
+// Writes to `path` whatever `write` puts on the stream, whole or not at all (atomic_file.h).
 template <typename Write>
 void writeFile(const std::string& path, Write write) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) fail(path, "cannot open for writing");
-  write(out);
-  out.flush();
-  if (!out) fail(path, "write failed (disk full?)");
-  out.close();
-  if (!out) fail(path, "write failed when closing (disk full?)");
+  try {
+    writeFileAtomically(path, write);
+  } catch (const std::runtime_error& e) {
+    throw MapIoError(e.what());
+  }
 }
 
 void writeBytes(std::ostream& out, const void* bytes, size_t size) {

@@ -4,6 +4,8 @@
 
 #include <stdexcept>
 
+#include "mrslam/atomic_file.h"
+
 namespace mrslam {
 
 size_t saveOctomap(const OccupancyGrid& grid, const std::string& path, double height, int occupied_threshold,
@@ -26,7 +28,9 @@ size_t saveOctomap(const OccupancyGrid& grid, const std::string& path, double he
     }
   tree.updateInnerOccupancy();
   tree.prune();
-  if (!tree.writeBinary(path)) throw std::runtime_error(path + ": cannot write OctoMap");
+  writeFileAtomically(path, [&tree, &path](std::ostream& out) {
+    if (!tree.writeBinary(out)) throw std::runtime_error(path + ": cannot write OctoMap");
+  });
   return tree.getNumLeafNodes();
 }
 
