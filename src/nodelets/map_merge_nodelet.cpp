@@ -13,7 +13,8 @@
 // arrived on the connection to it (one still being opened: how long it has been), -1 when none
 // is open; while a stale peer's link is silent too, the share subscriptions are re-made every
 // stale_after, see watchShareLinks), diagnostics; service ~export_octomap (std_srvs/Trigger)
-// writes the merged map as an OctoMap .bt to the parameter octomap_path.
+// writes the merged map as an OctoMap .bt to the parameter octomap_path (default
+// $ROS_HOME/<robot_id>_merged_map.bt, ~/.ros without ROS_HOME), whole or not at all.
 //
 // Fault containment: nothing a peer sends may take this robot down. A share is checked in the
 // callback (id, grid structure, origin) and its grid again in the worker with exactly the
@@ -34,6 +35,8 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -56,6 +59,17 @@
 #include "share_links.h"
 
 namespace mrslam::nodelets {
+namespace {
+
+// Where roslaunch runs nodes and keeps its logs: $ROS_HOME, else ~/.ros. (Not /tmp: a robot's
+// /tmp is emptied at every boot, and any user there can put a file of their own in the way.)
+std::string rosHome() {
+  if (const char* home = std::getenv("ROS_HOME"); home && *home) return home;
+  if (const char* user = std::getenv("HOME"); user && *user) return std::string(user) + "/.ros";
+  return ".";
+}
+
+}  // namespace
 
 class MapMergeNodelet : public nodelet::Nodelet {
  public:
@@ -78,7 +92,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     config.param<std::string>("compressed_share_topic", compressed_topic, "/mrslam/map_share_z");
     share_topics_ = {nh.resolveName(topic), nh.resolveName(compressed_topic)};
     config.param<std::string>("fusion_config", fusion_config, "");
-    config.param<std::string>("octomap_path", octomap_path_, "/tmp/" + robot_id_ + "_merged_map.bt");
+    config.param<std::string>("octomap_path", octomap_path_, rosHome() + "/" + robot_id_ + "_merged_map.bt");
     config.param<std::string>("record_dir", record_dir_, "");
     config.param("max_peer_cells", max_peer_cells_, 64.0e6);
     config.param("merged_map_period", merged_map_period_, 2.0);
@@ -661,6 +675,8 @@ class MapMergeNodelet : public nodelet::Nodelet {
       return true;
     }
     try {
+      std::error_code ignored;  // a folder that cannot be made: the write below says so
+      std::filesystem::create_directories(std::filesystem::path(octomap_path_).parent_path(), ignored);
       const size_t voxels = saveOctomap(gridFromMsg(*merged), octomap_path_);
       response.success = true;
       response.message = octomap_path_ + ": " + std::to_string(voxels) + " leaf voxels";
