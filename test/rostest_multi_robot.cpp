@@ -459,7 +459,7 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   EXPECT_TRUE(export_call.response.success) << export_call.response.message;
   EXPECT_NE(export_call.response.message.find("leaf voxels"), std::string::npos) << export_call.response.message;
   // The message names the file written ("PATH: N leaf voxels"): it must be there, and the test
-  // leaves nothing behind (the default path is /tmp/<robot>_merged_map.bt).
+  // leaves nothing behind (the default path is $ROS_HOME/<robot>_merged_map.bt).
   const std::string exported = export_call.response.message.substr(0, export_call.response.message.rfind(": "));
   std::error_code no_file;
   const std::uintmax_t bytes = std::filesystem::file_size(exported, no_file);  // on error, no_file says so

@@ -185,7 +185,7 @@ TEST(MapIo, ASaveIsWholeOrNotAtAll) {
   const mode_t mask = ::umask(027);
   saveMap(grid, (dir / "map.yaml").string(), ".pgm");
   ::umask(mask);
-  EXPECT_TRUE(readAll(dir / "map.pgm") == image) << "the older map's image was damaged";
+  EXPECT_TRUE(readAll(dir / "map.pgm") == image) << "the same map saved again differs";
   EXPECT_TRUE(readAll(dir / "map.yaml") == yaml);
   EXPECT_EQ(fs::status(dir / "map.pgm").permissions() & fs::perms::all,
             fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
