@@ -1,4 +1,4 @@
-// Laser scan matching with MRPT's ICP.
+// Laser scan matching with MRPT's ICP (its pairs found by a bucket grid, grid_indexed_points_map.h).
 //   - PointCloudAligner: aligns points to a fixed reference cloud (used for loop closures
 //     against a submap, and by the local map below);
 //   - ScanToMapMatcher: scan-to-map matching against a local map holding the returns of the

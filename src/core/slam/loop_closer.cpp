@@ -55,7 +55,7 @@ void LoopCloser::makeRoomFor(size_t bytes) {
 }
 
 size_t LoopCloser::cachedBytes() const {
-  // The correlative grids' (the aligner's k-d tree is small beside them).
+  // The correlative grids' (the aligner's nearest-point grid is small beside them).
   size_t total = 0;
   for (const auto& [index, m] : cache_) total += m.correlative->bytes();
   return total;

@@ -4,12 +4,13 @@
 #include <mrpt/poses/CPosePDFGaussian.h>
 #include <mrpt/slam/CICP.h>
 
+#include "mrslam/slam/grid_indexed_points_map.h"
 #include "mrslam/slam/likelihood_grid.h"
 
 namespace mrslam::slam {
 
 struct PointCloudAligner::Impl {
-  mrpt::maps::CSimplePointsMap reference;
+  GridIndexedPointsMap reference;
   mrpt::slam::CICP icp;
 };
 
@@ -31,7 +32,7 @@ void PointCloudAligner::setReference(const std::vector<std::pair<float, float>>&
   auto& map = impl_->reference;
   map.clear();
   for (const auto& [x, y] : reference) map.insertPointFast(x, y, 0.0f);
-  map.mark_as_modified();
+  map.index();
 }
 
 bool PointCloudAligner::empty() const { return impl_->reference.empty(); }
