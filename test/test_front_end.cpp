@@ -579,6 +579,28 @@ TEST(SlamLogCli, RunsARealLogAndRejectsBadInputWithExitTwo) {
   EXPECT_NE(window.output.find("--window 5:1"), std::string::npos) << window.output;
 }
 
+// A track lost on a slow scanner (Intel every 10th scan: about 16 m of global error) is
+// reported, not exited quietly; a run that held its map (every 5th) warns of nothing, and a
+// run without scan matching is not told its scans went unmatched.
+TEST(SlamLogCli, ALostTrackIsReportedAndAHeldOneIsNot) {
+  const std::string dir = ::testing::TempDir();
+  const std::string in = test::dataPath("logs/carmen_corrected/intel-corrected.log.gz");
+  const std::string convert = MRSLAM_CONVERT_LOG_BIN, slam = MRSLAM_SLAM_LOG_BIN;
+  ASSERT_EQ(test::runCommand(convert + " " + in + " " + dir + "/intel10.log --every 10").status, 0);
+  ASSERT_EQ(test::runCommand(convert + " " + in + " " + dir + "/intel5.log --every 5 --phase 1").status, 0);
+  const auto lost = test::runCommand(slam + " " + dir + "/intel10.log --trajectory " + dir + "/t10.txt");
+  EXPECT_EQ(lost.status, 0) << lost.output;
+  EXPECT_NE(lost.output.find("scans were not matched to the local map"), std::string::npos) << lost.output;
+  EXPECT_NE(lost.output.find("the track came back to mapped places"), std::string::npos) << lost.output;
+  const auto held = test::runCommand(slam + " " + dir + "/intel5.log --trajectory " + dir + "/t5.txt");
+  EXPECT_EQ(held.status, 0) << held.output;
+  EXPECT_EQ(held.output.find("WARNING"), std::string::npos) << held.output;
+  const auto odometry_only =
+      test::runCommand(slam + " " + dir + "/intel10.log --no-scan-matching --trajectory " + dir + "/t10.txt");
+  EXPECT_EQ(odometry_only.output.find("not matched"), std::string::npos) << odometry_only.output;
+  for (const char* f : {"/intel10.log", "/intel5.log", "/t10.txt", "/t5.txt"}) std::remove((dir + f).c_str());
+}
+
 // A slower scanner from a real log, every phase of the decimation; bad options refused.
 TEST(ConvertLogCli, WritesEveryPhaseOfADecimationAndLaterStartsAndRefusesBadOptions) {
   const std::string bin = MRSLAM_CONVERT_LOG_BIN;

@@ -475,6 +475,14 @@ class SlamNodelet : public nodelet::Nodelet {
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN, printable(tf_refusals.holder) + " publishes " + odom_frame_ +
                                                                   " -> " + base_frame_ + " but use_odometry is false");
     else if (s.used > 10 && s.matched < s.used / 2) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "fewer than half of the scans matched");
+    else if (s.matchesOftenFailed())
+      status.summary(diagnostic_msgs::DiagnosticStatus::WARN, std::to_string(s.used - s.matched) + " of " +
+                                                                  std::to_string(s.used) +
+                                                                  " scans not matched: the track leans on odometry");
+    else if (s.revisitsRarelyConfirmed())
+      status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                     "back in mapped places " + std::to_string(s.loop_attempts) + " times, the scans agreed " +
+                         std::to_string(s.loop_accepted) + ": the map may be doubled or bent (a lost track?)");
     else if (s.odometryOftenOverruled())
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "the scans overruled the odometry on " +
                                                                   std::to_string(s.odometryOverruled()) + " of " +

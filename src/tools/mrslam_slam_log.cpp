@@ -148,6 +148,13 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   if (s.used > 10 && o.scan_matching && s.matched * 2 < s.used)
     std::cerr << "mrslam_slam_log: WARNING: most scan matches failed (" << s.matched << " of " << s.used
               << "): the trajectory is mostly odometry and the map will be smeared\n";
+  else if (o.scan_matching && s.matchesOftenFailed())
+    std::cerr << "mrslam_slam_log: WARNING: " << s.used - s.matched << " of " << s.used
+              << " scans were not matched to the local map: the track leans on odometry there; check the map\n";
+  if (s.revisitsRarelyConfirmed())
+    std::cerr << "mrslam_slam_log: WARNING: the track came back to mapped places " << s.loop_attempts
+              << " times and the scans agreed " << s.loop_accepted
+              << " times: the map is likely doubled or bent there (a lost track), or the place changed; check the map\n";
   if (s.odometryOftenOverruled())
     std::cerr << "mrslam_slam_log: WARNING: the scans overruled the odometry on " << s.odometryOverruled() << " of "
               << s.used << " scans (slipped, jumped or missed a turn): the log's odometry does not tell this robot's"
