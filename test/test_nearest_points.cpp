@@ -98,6 +98,8 @@ TEST(NearestPointGrid, EmptyOrUnreachableQueriesFindNothing) {
   grid.build(x, y, 1, 0.1f);
   EXPECT_EQ(grid.nearest(1.05f, 1.0f, 0.1f).index, 0);
   EXPECT_EQ(grid.nearest(1e30f, 0, 1).index, -1) << "far outside (beyond int) the grid";
+  EXPECT_EQ(grid.nearest(1e30f, 0, 1e30f).index, -1) << "beyond int, however far it may reach";
+  EXPECT_EQ(grid.nearest(-5e5f, 0, std::numeric_limits<float>::infinity()).index, 0);
   EXPECT_EQ(grid.nearest(std::nanf(""), 0, 1).index, -1);
   EXPECT_EQ(grid.nearest(1, 1, std::nanf("")).index, -1);
   EXPECT_EQ(grid.nearest(1, 1, -1).index, -1);

@@ -87,6 +87,9 @@ void NearestPointGrid::scanRing(int cx, int cy, int r, float x, float y, Nearest
 NearestPointGrid::Nearest NearestPointGrid::nearest(float x, float y, float max_dist) const {
   Nearest best;
   if (index_.empty() || !(max_dist > 0) || !std::isfinite(x) || !std::isfinite(y)) return best;
+  // No two points of a map are a thousand kilometres apart; the cap keeps the cell arithmetic
+  // below within int.
+  max_dist = std::min(max_dist, 1e6f);
   best.dist_sq = max_dist * max_dist;  // only strictly nearer points are taken
   const float fx = (x - x0_) / cell_, fy = (y - y0_) / cell_;
   // Far outside the grid (or beyond int): nothing can be within reach unless max_dist is huge.
