@@ -10,7 +10,6 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -252,7 +251,7 @@ struct FrontEndStats {
   bool matchesOftenFailed() const {
     constexpr size_t kMinScans = 20;
     constexpr double kOftenShare = 0.25;  // of the scans used
-    return used >= kMinScans && static_cast<double>(used - std::min(matched, used)) > kOftenShare * static_cast<double>(used);
+    return used >= kMinScans && static_cast<double>(matched) < (1.0 - kOftenShare) * static_cast<double>(used);
   }
   // Whether the track came back to mapped places many times (by its own estimate: that is when
   // closures are searched for) and the scans almost never agreed: the map is likely doubled or

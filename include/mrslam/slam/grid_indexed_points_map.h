@@ -30,10 +30,6 @@ class GridIndexedPointsMap : public mrpt::maps::CSimplePointsMap {
                            mrpt::maps::TMatchingExtraResults& extra) const override;
 
  private:
-  // Whether the other map's points, moved by (c, s, tx, ty), lie in a box apart from ours.
-  bool movedBoxMissesOurs(const mrpt::aligned_std_vector<float>& ox, const mrpt::aligned_std_vector<float>& oy,
-                          float c, float s, float tx, float ty) const;
-
   NearestPointGrid grid_;
   size_t indexed_points_ = 0;
 };

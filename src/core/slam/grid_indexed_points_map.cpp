@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include <mrpt/poses/CPose2D.h>
 
@@ -13,23 +13,6 @@ void GridIndexedPointsMap::index() {
   mark_as_modified();  // MRPT's cached bounding box
   grid_.build(m_x.data(), m_y.data(), m_x.size(), kCell);
   indexed_points_ = m_x.size();
-}
-
-bool GridIndexedPointsMap::movedBoxMissesOurs(const mrpt::aligned_std_vector<float>& ox,
-                                              const mrpt::aligned_std_vector<float>& oy, float c, float s, float tx,
-                                              float ty) const {
-  float x_min = std::numeric_limits<float>::max(), y_min = x_min;
-  float x_max = std::numeric_limits<float>::lowest(), y_max = x_max;
-  for (size_t i = 0; i < ox.size(); ++i) {
-    const float x = tx + c * ox[i] - s * oy[i];
-    const float y = ty + s * ox[i] + c * oy[i];
-    x_min = std::min(x_min, x);
-    x_max = std::max(x_max, x);
-    y_min = std::min(y_min, y);
-    y_max = std::max(y_max, y);
-  }
-  const auto ours = boundingBox();
-  return x_min > ours.max.x || x_max < ours.min.x || y_min > ours.max.y || y_max < ours.min.y;
 }
 
 void GridIndexedPointsMap::determineMatching2D(const mrpt::maps::CMetricMap* other_map,
@@ -47,16 +30,24 @@ void GridIndexedPointsMap::determineMatching2D(const mrpt::maps::CMetricMap* oth
   const auto& oz = other->getPointsBufferRef_z();
   const float c = static_cast<float>(std::cos(other_pose.phi())), s = static_cast<float>(std::sin(other_pose.phi()));
   const float tx = static_cast<float>(other_pose.x()), ty = static_cast<float>(other_pose.y());
-  if (movedBoxMissesOurs(ox, oy, c, s, tx, ty)) return;
+  // Every point moved into our frame (all of them, as MRPT's box rule takes them all), in
+  // MRPT's order of operations so that both see the same moved point to the bit.
+  std::vector<float> xs(ox.size()), ys(ox.size());
+  for (size_t i = 0; i < ox.size(); ++i) {
+    xs[i] = tx + c * ox[i] - s * oy[i];
+    ys[i] = ty + s * ox[i] + c * oy[i];
+  }
+  const auto [x_min, x_max] = std::minmax_element(xs.begin(), xs.end());
+  const auto [y_min, y_max] = std::minmax_element(ys.begin(), ys.end());
+  const auto ours = boundingBox();
+  if (*x_min > ours.max.x || *x_max < ours.min.x || *y_min > ours.max.y || *y_max < ours.min.y) return;
   // MRPT's angular term widens the pairing distance with the point's range from this pivot.
   const double pivot_x = params.angularDistPivotPoint.x, pivot_y = params.angularDistPivotPoint.y;
   float sum_sq = 0;  // summed in float, as MRPT sums it
   size_t paired = 0;
   pairs.reserve(other->size() / params.decimation_other_map_points + 1);
   for (size_t i = params.offset_other_map_points; i < other->size(); i += params.decimation_other_map_points) {
-    // In MRPT's order of operations, so that both see the same moved point to the bit.
-    const float x = tx + c * ox[i] - s * oy[i];
-    const float y = ty + s * ox[i] + c * oy[i];
+    const float x = xs[i], y = ys[i];
     const double reach = params.maxAngularDistForCorrespondence == 0
                              ? params.maxDistForCorrespondence
                              : params.maxAngularDistForCorrespondence * std::hypot(pivot_x - x, pivot_y - y) +
