@@ -89,7 +89,11 @@ class CorrelativeMatcher {
   struct Candidate;
   struct Rotated;
   // Sum of the level's cells under `cells` shifted by (dx, dy); cells outside count 0.
-  static int64_t sumAt(const Level& level, const Rotated& rotated, int dx, int dy);
+  // `linear` is the rotated cells' row-major index on this level (rowIndex), for the candidates
+  // wholly inside it.
+  static int64_t sumAt(const Level& level, const Rotated& rotated, const int32_t* linear, int dx, int dy);
+  // The cells' index cy * width + cx on `level`, written to `out` (an index per cell).
+  static void rowIndex(const Level& level, const Rotated& rotated, int32_t* out);
   // Levels 0.. from the grid, in the levels' own buffers; `row_pass` is scratch.
   void buildLevels(std::vector<uint8_t>& row_pass);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace mrslam::slam {
 
@@ -38,16 +39,33 @@ struct CorrelativeMatcher::Rotated {
   int min_x = 0, max_x = -1, min_y = 0, max_y = -1;
 };
 
-int64_t CorrelativeMatcher::sumAt(const Level& level, const Rotated& rotated, int dx, int dy) {
+void CorrelativeMatcher::rowIndex(const Level& level, const Rotated& rotated, int32_t* out) {
+  // A cell far outside the level may not fit 32 bits; no candidate holding it lies wholly inside
+  // the level, so its index is never read.
+  for (const auto& [cx, cy] : rotated.cells) *out++ = static_cast<int32_t>(int64_t{cy} * level.width + cx);
+}
+
+int64_t CorrelativeMatcher::sumAt(const Level& level, const Rotated& rotated, const int32_t* linear, int dx, int dy) {
   const int ox = dx + level.offset, oy = dy + level.offset;
   const int64_t width = level.width;
   int64_t sum = 0;
-  // Most candidates lie wholly inside the level: those skip the per-point bounds test (the
-  // searches are most of a run's time; same sums either way).
+  // Most candidates lie wholly inside the level: those read their cells through the row-major
+  // index, with no per-point bounds test nor multiply (the searches are most of a run's time;
+  // same sums either way). Four sums side by side keep the loads independent.
   if (rotated.min_x + ox >= 0 && rotated.min_y + oy >= 0 && rotated.max_x + ox < level.width &&
       rotated.max_y + oy < level.height) {
-    for (const auto& [cx, cy] : rotated.cells) sum += level.values[(cy + oy) * width + (cx + ox)];
-    return sum;
+    const uint8_t* const base = level.values + (oy * width + ox);
+    const size_t n = rotated.cells.size();
+    uint32_t s0 = 0, s1 = 0, s2 = 0, s3 = 0;  // at most 255 a cell: no overflow below 16 M points
+    size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+      s0 += base[linear[i]];
+      s1 += base[linear[i + 1]];
+      s2 += base[linear[i + 2]];
+      s3 += base[linear[i + 3]];
+    }
+    for (; i < n; ++i) s0 += base[linear[i]];
+    return int64_t{s0} + s1 + s2 + s3;
   }
   for (const auto& [cx, cy] : rotated.cells) {
     const int x = cx + ox, y = cy + oy;
@@ -120,15 +138,20 @@ void CorrelativeMatcher::buildLevels(std::vector<uint8_t>& row_pass) {
     next.offset = (1 << h) - 1;
     next.width = width;
     next.height = height;
-    next.pooled.assign(static_cast<size_t>(width) * height, 0);
+    next.pooled.resize(static_cast<size_t>(width) * height);
     next.values = next.pooled.data();
     uint8_t* const pooled = next.pooled.data();
-    for (int y = 0; y < height; ++y) {  // row y: rows y - step and y of the row pass
+    for (int y = 0; y < height; ++y) {  // row y: the max of rows y - step and y of the row pass
       uint8_t* const out = pooled + static_cast<size_t>(y) * width;
-      for (const int r : {y - step, y}) {
-        if (r < 0 || r >= prev_height) continue;
-        const uint8_t* const in = rows + static_cast<size_t>(r) * width;
-        for (int x = 0; x < width; ++x) out[x] = std::max(out[x], in[x]);
+      const bool above = y - step >= 0, own = y < prev_height;  // y - step < prev_height always
+      const uint8_t* const a = rows + static_cast<size_t>(above ? y - step : 0) * width;
+      const uint8_t* const b = rows + static_cast<size_t>(own ? y : 0) * width;
+      if (above && own) {
+        for (int x = 0; x < width; ++x) out[x] = std::max(a[x], b[x]);
+      } else if (above || own) {
+        std::copy(above ? a : b, (above ? a : b) + width, out);
+      } else {
+        std::fill(out, out + width, uint8_t{0});  // only when step > prev_height
       }
     }
   }
@@ -164,11 +187,27 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
     rotated.push_back(std::move(r));
   }
   const double n = 255.0 * static_cast<double>(points.size());
+  // Each rotation's row-major index on each level, made when a candidate first needs it and
+  // kept one after another: a search holds only the indices of the rotations and levels it
+  // reaches (most rotations are pruned at the coarse levels).
+  const size_t level_count = levels_.size();
+  std::vector<int32_t> linear;
+  linear.reserve(rotated.size() * points.size());
+  std::vector<size_t> linear_at(rotated.size() * level_count, SIZE_MAX);
+  auto linearFor = [&](int rotation, int h) {
+    size_t& at = linear_at[static_cast<size_t>(rotation) * level_count + static_cast<size_t>(h)];
+    if (at == SIZE_MAX) {
+      at = linear.size();
+      linear.resize(at + points.size());
+      rowIndex(levels_[h], rotated[static_cast<size_t>(rotation)], linear.data() + at);
+    }
+    return linear.data() + at;
+  };
   size_t evaluations = 0;
   auto score = [&](const Candidate& c, int h) {
     ++evaluations;
     result.exhausted = evaluations > kMaxEvaluations;
-    return static_cast<float>(sumAt(levels_[h], rotated[c.rotation], c.dx, c.dy) / n);
+    return static_cast<float>(sumAt(levels_[h], rotated[c.rotation], linearFor(c.rotation, h), c.dx, c.dy) / n);
   };
   // The prior's factor for a yaw offset, and its largest value over the translations of a
   // candidate covering offsets [dx, dx + size) x [dy, dy + size) (its nearest point to 0).
@@ -190,6 +229,7 @@ CorrelativeMatch CorrelativeMatcher::match(const Points2& points, const SearchWi
   auto nearest_zero = [](double lo, double hi) { return lo > 0 ? lo : (hi < 0 ? -hi : 0.0); };
   auto prior = [&](const Candidate& c, int size) {
     if (!directed) {
+      if (!(window.sigma_xy > 0)) return yaw_factor[c.rotation];  // factor() would be 1
       auto nearest = [size](int lo) { return lo > 0 ? lo : (lo + size - 1 < 0 ? lo + size - 1 : 0); };
       const double d = res * std::hypot(nearest(c.dx), nearest(c.dy));
       return yaw_factor[c.rotation] * factor(d, window.sigma_xy);
