@@ -143,15 +143,15 @@ void CorrelativeMatcher::buildLevels(std::vector<uint8_t>& row_pass) {
     uint8_t* const pooled = next.pooled.data();
     for (int y = 0; y < height; ++y) {  // row y: the max of rows y - step and y of the row pass
       uint8_t* const out = pooled + static_cast<size_t>(y) * width;
-      const bool above = y - step >= 0, own = y < prev_height;  // y - step < prev_height always
-      const uint8_t* const a = rows + static_cast<size_t>(above ? y - step : 0) * width;
-      const uint8_t* const b = rows + static_cast<size_t>(own ? y : 0) * width;
-      if (above && own) {
+      // y - step < prev_height always; either row may lie outside the row pass.
+      const uint8_t* const a = y - step >= 0 ? rows + static_cast<size_t>(y - step) * width : nullptr;
+      const uint8_t* const b = y < prev_height ? rows + static_cast<size_t>(y) * width : nullptr;
+      if (a && b) {
         for (int x = 0; x < width; ++x) out[x] = std::max(a[x], b[x]);
-      } else if (above || own) {
-        std::copy(above ? a : b, (above ? a : b) + width, out);
+      } else if (a || b) {
+        std::copy_n(a ? a : b, width, out);
       } else {
-        std::fill(out, out + width, uint8_t{0});  // only when step > prev_height
+        std::fill_n(out, width, uint8_t{0});  // only when step > prev_height
       }
     }
   }
