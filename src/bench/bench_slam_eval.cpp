@@ -1,11 +1,14 @@
-// mrslam_bench_slam_eval [--scan-relations N] LOG [LABEL=TRAJECTORY ...]: accuracy of
+// mrslam_bench_slam_eval [--scan-relations N] [--wall-directions] LOG [LABEL=TRAJECTORY ...]: accuracy of
 // trajectories against the reference poses of a corrected CARMEN log (Kümmerle et al. 2009
 // relations), beside the raw wheel odometry chained from the log's ODOM lines. Prints markdown
 // table rows:
 //   | log | method | 1-step m | 1-step deg | 10-step m | 10-step deg | global m | global deg | conflict % |
 // With --scan-relations N, two more columns: the error against up to N relations between scans
 // of different passes that the scans themselves fix (bench/scan_relations.h), and a row for the
-// reference poses against them; the relations' count goes to stderr.
+// reference poses against them; the relations' count goes to stderr. With --wall-directions,
+// one more: how far the wall directions of the map's regions spread (bench/wall_directions.h:
+// a bent map spreads, whatever its revisits say): standard deviation and range in degrees, and
+// the number of regions with walls enough to count.
 // Trajectory lines are matched to the log's scans by scan index where they carry one, else by
 // time stamp, in order.
 //
@@ -23,6 +26,7 @@
 #include "mrslam/bench/map_consistency.h"
 #include "mrslam/bench/scan_relations.h"
 #include "mrslam/bench/trajectory_metrics.h"
+#include "mrslam/bench/wall_directions.h"
 #include "mrslam/slam/robot_log.h"
 
 namespace {
@@ -64,6 +68,19 @@ std::string scanCheckedColumns(const std::vector<Pose2D>& estimate, const std::v
   return " " + cell(e.trans_mean, e.trans_std, 1, 3) + " | " + cell(e.rot_mean, e.rot_std, 180.0 / M_PI, 2) + " |";
 }
 
+// The spread of the regions' wall directions (degrees, standard deviation and largest minus
+// smallest) of the map the scans make along `poses` (bench/wall_directions.h).
+std::string wallDirectionsColumn(const mrslam::slam::RobotLog& log, const std::vector<size_t>& scans,
+                                 const std::vector<Pose2D>& poses) {
+  std::vector<const mrslam::slam::LaserScan*> taken;
+  for (size_t k : scans) taken.push_back(&log.records[k].scan);
+  const auto walls = bench::wallDirections(taken, poses, log.laser_in_base);
+  if (walls.region_deg.size() < 2) return " – |";  // too few walls anywhere to compare regions
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), " %.2f (%.2f, %zu) |", walls.std_deg, walls.spread_deg, walls.region_deg.size());
+  return buffer;
+}
+
 void row(const std::string& log_name, const std::string& label, const std::vector<Pose2D>& estimate,
          const std::vector<Pose2D>& reference, double conflict, const std::string& more_columns) {
   const double deg = 180.0 / M_PI;
@@ -82,15 +99,24 @@ void row(const std::string& log_name, const std::string& label, const std::vecto
 int main(int argc, char** argv) {
   int first = 1;
   size_t relation_count = 0;
-  bool bad_count = false;
-  if (argc > 1 && std::string(argv[1]) == "--scan-relations") {
-    char* end = nullptr;
-    relation_count = argc > 2 ? std::strtoul(argv[2], &end, 10) : 0;
-    bad_count = argc <= 2 || *end != '\0' || relation_count < 1 || relation_count > 100000;
-    first = 3;
+  bool bad_count = false, wall_directions = false;
+  while (first < argc && std::string(argv[first]).rfind("--", 0) == 0 && !bad_count) {
+    const std::string flag = argv[first];
+    if (flag == "--scan-relations") {
+      char* end = nullptr;
+      relation_count = first + 1 < argc ? std::strtoul(argv[first + 1], &end, 10) : 0;
+      bad_count = first + 1 >= argc || *end != '\0' || relation_count < 1 || relation_count > 100000;
+      first += 2;
+    } else if (flag == "--wall-directions") {
+      wall_directions = true;
+      ++first;
+    } else {
+      bad_count = true;
+    }
   }
   if (argc <= first || bad_count) {
-    std::cerr << "usage: mrslam_bench_slam_eval [--scan-relations N (1..100000)] LOG [LABEL=TRAJECTORY ...]\n";
+    std::cerr << "usage: mrslam_bench_slam_eval [--scan-relations N (1..100000)] [--wall-directions] LOG "
+                 "[LABEL=TRAJECTORY ...]\n";
     return 2;
   }
   try {
@@ -111,7 +137,9 @@ int main(int argc, char** argv) {
                 << checked.candidates << " on different passes)\n";
     }
     auto more = [&](const std::vector<Pose2D>& poses, const std::vector<size_t>& scans) {
-      return relation_count > 0 ? scanCheckedColumns(poses, relationsWithin(relations, scans)) : std::string();
+      std::string columns = relation_count > 0 ? scanCheckedColumns(poses, relationsWithin(relations, scans)) : "";
+      if (wall_directions) columns += wallDirectionsColumn(log, scans, poses);
+      return columns;
     };
     std::cout << "| " << name << " | reference poses (the truth used here) | – | – | – | – | – | – | " << std::fixed
               << std::setprecision(2) << conflictPercent(log, all, reference) << " |" << more(reference, all) << "\n";
