@@ -99,22 +99,22 @@ void row(const std::string& log_name, const std::string& label, const std::vecto
 int main(int argc, char** argv) {
   int first = 1;
   size_t relation_count = 0;
-  bool bad_count = false, wall_directions = false;
-  while (first < argc && std::string(argv[first]).rfind("--", 0) == 0 && !bad_count) {
+  bool bad_usage = false, wall_directions = false;
+  while (first < argc && std::string(argv[first]).rfind("--", 0) == 0 && !bad_usage) {
     const std::string flag = argv[first];
     if (flag == "--scan-relations") {
       char* end = nullptr;
       relation_count = first + 1 < argc ? std::strtoul(argv[first + 1], &end, 10) : 0;
-      bad_count = first + 1 >= argc || *end != '\0' || relation_count < 1 || relation_count > 100000;
+      bad_usage = first + 1 >= argc || *end != '\0' || relation_count < 1 || relation_count > 100000;
       first += 2;
     } else if (flag == "--wall-directions") {
       wall_directions = true;
       ++first;
     } else {
-      bad_count = true;
+      bad_usage = true;  // an unknown flag
     }
   }
-  if (argc <= first || bad_count) {
+  if (argc <= first || bad_usage) {
     std::cerr << "usage: mrslam_bench_slam_eval [--scan-relations N (1..100000)] [--wall-directions] LOG "
                  "[LABEL=TRAJECTORY ...]\n";
     return 2;

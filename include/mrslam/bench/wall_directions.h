@@ -1,11 +1,11 @@
 // How straight a map is, with no reference needed, for buildings whose walls run along two
 // perpendicular directions (most offices): the scans' returns are cast along the trajectory
 // into hit cells, the map is cut along each of its own wall axes into k bands holding equal
-// shares of the walls, k x k regions, and each region's wall direction is found on its own. In a straight map
-// they agree; a map bent by heading drift between revisits, which the relations the scans fix
-// cannot see (bench/scan_relations.h), has regions turned against each other. Buildings whose
-// walls are not at right angles give a spread of their own: compare trajectories of one log,
-// the reference's among them, never figures of different buildings.
+// shares of the walls (k x k regions), and each region's wall direction is found on its own.
+// In a straight map they agree; a map bent by heading drift between revisits, which the
+// relations the scans fix cannot see (bench/scan_relations.h), has regions turned against each
+// other. Buildings whose walls are not at right angles give a spread of their own: compare
+// trajectories of one log, the reference's among them, never figures of different buildings.
 #pragma once
 
 #include <vector>
