@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <unordered_map>
 
+#include "mrslam/bench/cell_key.h"
+
 namespace mrslam::bench {
 
 namespace {
@@ -12,8 +14,6 @@ namespace {
 struct Counts {
   uint32_t hits = 0, misses = 0;
 };
-
-int64_t key(int x, int y) { return static_cast<int64_t>((static_cast<uint64_t>(x) << 32) ^ static_cast<uint32_t>(y)); }
 
 }  // namespace
 
@@ -35,12 +35,12 @@ MapConsistency mapConsistency(const std::vector<const slam::LaserScan*>& scans, 
       const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0), sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
       int err = dx + dy;
       while (x != x1 || y != y1) {
-        ++cells[key(x, y)].misses;
+        ++cells[cellKey(x, y)].misses;
         const int e2 = 2 * err;
         if (e2 >= dy) err += dy, x += sx;
         if (e2 <= dx) err += dx, y += sy;
       }
-      ++cells[key(x1, y1)].hits;
+      ++cells[cellKey(x1, y1)].hits;
     }
   }
   MapConsistency out;

@@ -7,6 +7,8 @@
 #include <random>
 #include <unordered_map>
 
+#include "mrslam/bench/cell_key.h"
+
 namespace mrslam::bench {
 
 namespace {
@@ -60,7 +62,7 @@ class WallGrid {
  public:
   WallGrid(const Cloud& cloud, double cell) : cloud_(cloud), cell_(cell) {
     for (size_t k = 0; k < cloud.points.size(); ++k)
-      if (!cloud.normals[k].isZero()) cells_[key(cellOf(cloud.points[k].x()), cellOf(cloud.points[k].y()))].push_back(k);
+      if (!cloud.normals[k].isZero()) cells_[cellKey(cellOf(cloud.points[k].x()), cellOf(cloud.points[k].y()))].push_back(k);
   }
   // The wall point nearest to p within the cell width, or -1.
   long nearest(const Eigen::Vector2d& p) const {
@@ -69,7 +71,7 @@ class WallGrid {
     double best_d2 = cell_ * cell_;
     for (long dx = -1; dx <= 1; ++dx)
       for (long dy = -1; dy <= 1; ++dy) {
-        const auto it = cells_.find(key(cx + dx, cy + dy));
+        const auto it = cells_.find(cellKey(cx + dx, cy + dy));
         if (it == cells_.end()) continue;
         for (size_t k : it->second) {
           const double d2 = (cloud_.points[k] - p).squaredNorm();
@@ -81,7 +83,6 @@ class WallGrid {
 
  private:
   long cellOf(double v) const { return static_cast<long>(std::floor(v / cell_)); }
-  static int64_t key(long x, long y) { return static_cast<int64_t>((static_cast<uint64_t>(x) << 32) ^ static_cast<uint32_t>(y)); }
   const Cloud& cloud_;
   double cell_;
   std::unordered_map<int64_t, std::vector<size_t>> cells_;

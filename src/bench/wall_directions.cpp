@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <unordered_map>
 
+#include "mrslam/bench/cell_key.h"
+
 namespace mrslam::bench {
 
 namespace {
@@ -51,18 +53,12 @@ Cells wallCells(const std::vector<const slam::LaserScan*>& scans, const std::vec
     uint32_t count = 0;
   };
   std::unordered_map<int64_t, Hits> hits;
-  auto key = [](int64_t x, int64_t y) {
-    return static_cast<int64_t>((static_cast<uint64_t>(x) << 32) ^ static_cast<uint32_t>(y));
-  };
   for (size_t i = 0; i < scans.size() && i < poses.size(); ++i) {
-    const slam::LaserScan& scan = *scans[i];
     const Pose2D laser = poses[i].compose(laser_in_base);
-    for (size_t b = 0; b < scan.ranges.size(); ++b) {
-      const float r = scan.ranges[b];
-      if (!std::isfinite(r) || r < scan.range_min || r >= scan.range_max || r > p.max_range) continue;
-      const double a = laser.yaw + scan.angle_min + b * scan.angle_increment;
-      const double x = (laser.x + r * std::cos(a)) / p.resolution, y = (laser.y + r * std::sin(a)) / p.resolution;
-      Hits& cell = hits[key(static_cast<int64_t>(std::floor(x)), static_cast<int64_t>(std::floor(y)))];
+    for (const auto& [px, py] : slam::scanPoints(*scans[i], laser)) {
+      if (std::hypot(px - laser.x, py - laser.y) > p.max_range) continue;
+      const double x = px / p.resolution, y = py / p.resolution;
+      Hits& cell = hits[cellKey(static_cast<int64_t>(std::floor(x)), static_cast<int64_t>(std::floor(y)))];
       cell.x += x, cell.y += y, ++cell.count;
     }
   }
