@@ -794,6 +794,54 @@ TEST(SlamLogCli, EqualTimeStampsAreReportedAndTheRunFollowsTheLines) {
   EXPECT_LT(without, with_time + 0.05);
 }
 
+// A log whose time stamps are unusable cannot be cut by time (--window), but by its lines: the
+// Intel excerpt with every stamp equal, run from scan 50 to 109, tracks those 60 scans from its
+// own origin, and a range that is backwards, reaches past the log's end or is mixed with
+// --window is refused by name.
+TEST(SlamLogCli, ALogWithUnusableStampsIsCutByItsScans) {
+  const std::string bin = MRSLAM_SLAM_LOG_BIN;
+  const std::string dir = ::testing::TempDir();
+  RobotLog excerpt = intelLog();
+  excerpt.records.resize(150);
+  for (LogRecord& r : excerpt.records) r.scan.stamp = 1.07e9;
+  const std::string coarse = dir + "/intel150_equal.log", out = " --trajectory " + dir + "/cut.txt";
+  writeCarmenLog(excerpt, coarse);
+  const auto by_time = test::runCommand(bin + " " + coarse + " --window 0:10" + out);
+  EXPECT_EQ(by_time.status, 2) << by_time.output;
+  const auto run = test::runCommand(bin + " " + coarse + " --scans 50:109" + out);
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("window starts at scan 50"), std::string::npos) << run.output;
+  const auto cut = bench::readIndexedTrajectory(dir + "/cut.txt");
+  ASSERT_EQ(cut.size(), 60u);
+  EXPECT_EQ(cut.front().scan, 50);
+  EXPECT_EQ(cut.back().scan, 109);
+  EXPECT_NEAR(std::hypot(cut.front().pose.x, cut.front().pose.y), 0.0, 1e-6);
+  std::vector<Pose2D> estimate, reference;
+  for (const auto& e : cut) {
+    estimate.push_back(e.pose);
+    reference.push_back(excerpt.records[static_cast<size_t>(e.scan)].reference);
+  }
+  std::vector<Pose2D> odometry{Pose2D{}};
+  for (size_t k = 51; k <= 109; ++k) odometry.push_back(odometry.back().compose(excerpt.records[k].odometry));
+  const auto pairs = bench::randomPairs(reference.size(), 300, 1);
+  const double error = bench::relationError(estimate, reference, pairs).trans_mean;
+  const double odometry_error = bench::relationError(odometry, reference, pairs).trans_mean;
+  std::printf("Intel scans 50-109, all stamps equal, cut by --scans: global error %.3f m (odometry %.3f m)\n", error,
+              odometry_error);
+  EXPECT_LT(error, 0.15);  // what the whole log's run gets
+  EXPECT_LT(error, 0.5 * odometry_error);
+
+  for (const std::string& bad : {std::string("--scans 109:50"), std::string("--scans 50"), std::string("--scans a:9"),
+                                 std::string("--scans 150:0"), std::string("--scans 100:150"),
+                                 std::string("--scans 5:9 --window 0:1")}) {
+    const auto refused = test::runCommand(bin + " " + coarse + " " + bad + out);
+    EXPECT_EQ(refused.status, 2) << bad << ": " << refused.output;
+    EXPECT_NE(refused.output.find("--scans"), std::string::npos) << bad << ": " << refused.output;
+  }
+  EXPECT_NE(test::runCommand(bin + " " + coarse + " --scans 150:0" + out).output.find("the log has 150 scans"),
+            std::string::npos);
+}
+
 // End to end on real scans: the Intel excerpt written as ROBOTLASER1 lines maps exactly as its
 // FLASER twin (same scans, beam layout and odometry; before, it was refused as no CARMEN log).
 TEST(SlamLogCli, ARobotLaserLogIsTrackedAsItsFlaserTwin) {

@@ -3,11 +3,13 @@
 //
 //   mrslam_slam_log LOG --trajectory OUT.txt [--map OUT.yaml [--png]] [--config robot.yaml]
 //                   [--simulated-imu [--imu-seed N]] [--no-scan-matching] [--no-loop-closure]
-//                   [--window START:END] [--allow-partial] [--stats]
+//                   [--window START:END | --scans FIRST:LAST] [--allow-partial] [--stats]
 //
 // LOG: CARMEN .log/.log.gz (scans from FLASER, ROBOTLASER1 or RAWLASER1 lines; odometry from
 // the ODOM lines; the scan lines' robot poses are the reference and never input), Mines .dat,
-// MRPT .rawlog. OUT.txt gets one line per scan used,
+// MRPT .rawlog. --window runs the scans of a stretch of time, --scans those of a stretch of the
+// log's lines (indices as in OUT.txt, LAST included; a log whose time stamps are unusable can
+// only be cut this way). OUT.txt gets one line per scan used,
 // "timestamp x y yaw scan": base_link in the robot's map frame (its pose at the first scan),
 // the final estimate after every loop closure, and the scan's index in the log. --simulated-imu
 // feeds a SIMULATED MEMS gyro made from the log's reference trajectory (logs with reference
@@ -20,6 +22,7 @@
 // (lines skipped, file truncated) unless --allow-partial.
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -44,7 +47,7 @@ namespace slam = mrslam::slam;
 constexpr const char* kUsage =
     "usage: mrslam_slam_log LOG --trajectory OUT.txt [--map OUT.yaml [--png]] [--config robot.yaml]\n"
     "                       [--simulated-imu [--imu-seed N]] [--no-scan-matching] [--no-loop-closure]\n"
-    "                       [--window START:END] [--allow-partial] [--stats]\n";
+    "                       [--window START:END | --scans FIRST:LAST] [--allow-partial] [--stats]\n";
 
 constexpr int kBadInput = 2, kPartialInput = 3;
 
@@ -60,7 +63,28 @@ struct Options {
   unsigned imu_seed = 1;
   double window_start = 0, window_end = 0;  // seconds after the log's first scan; end 0 = to the end
   bool windowed = false;
+  size_t first_scan = 0, last_scan = 0;  // --scans: indices in the log, last included; last 0 = to the end
+  bool scan_window = false;
+  // Whether scan `k`, taken `t_log` s after the log's first, lies outside the window asked for.
+  bool outside(size_t k, double t_log) const {
+    if (windowed) return t_log < window_start || (window_end > 0 && t_log > window_end);
+    if (scan_window) return k < first_scan || (last_scan > 0 && k > last_scan);
+    return false;
+  }
 };
+
+// FIRST:LAST as two scan indices into `first` and `last`; false when it is not that.
+bool parseScanRange(const std::string& text, size_t& first, size_t& last) {
+  const size_t colon = text.find(':');
+  if (colon == std::string::npos) return false;
+  const std::string a = text.substr(0, colon), b = text.substr(colon + 1);
+  const auto digits = [](const std::string& t) {
+    return !t.empty() && t.size() <= 9 && t.find_first_not_of("0123456789") == std::string::npos;
+  };
+  if (!digits(a) || !digits(b)) return false;
+  first = std::stoul(a), last = std::stoul(b);
+  return true;
+}
 
 // Parses the command line; an empty string when it is usable, else the problem.
 std::string parseOptions(int argc, char** argv, Options& o) {
@@ -93,6 +117,12 @@ std::string parseOptions(int argc, char** argv, Options& o) {
           (o.window_end != 0 && o.window_end <= o.window_start))
         return "--window " + text + ": START must be >= 0 and END after START (or 0: to the end)";
       o.windowed = true;
+    } else if (a == "--scans") {
+      if (!value(text) || !parseScanRange(text, o.first_scan, o.last_scan))
+        return "--scans needs FIRST:LAST (scan indices in the log)" + (text.empty() ? std::string() : ", got '" + text + "'");
+      if (o.last_scan != 0 && o.last_scan <= o.first_scan)
+        return "--scans " + text + ": LAST must come after FIRST (or be 0: to the end)";
+      o.scan_window = true;
     } else if (a == "--simulated-imu") {
       o.simulated_imu = true;
     } else if (a == "--no-scan-matching") {
@@ -114,6 +144,7 @@ std::string parseOptions(int argc, char** argv, Options& o) {
     }
   }
   if (o.log_path.empty() || o.trajectory_path.empty()) return "missing arguments";
+  if (o.windowed && o.scan_window) return "--window and --scans cannot be combined: cut by time or by scans";
   return "";
 }
 
@@ -203,6 +234,10 @@ int main(int argc, char** argv) {
   }
   if (o.simulated_imu && !log.records.front().has_reference)
     return fail(o.log_path + ": --simulated-imu needs a log with reference poses (the corrected CARMEN logs)");
+  if (o.scan_window && std::max(o.first_scan, o.last_scan) >= log.records.size())
+    return fail(o.log_path + ": --scans reaches scan " + std::to_string(std::max(o.first_scan, o.last_scan)) +
+                ", but the log has " + std::to_string(log.records.size()) + " scans (0 to " +
+                std::to_string(log.records.size() - 1) + ")");
   const slam::TimeStampCheck time = slam::checkTimeStamps(log);
   if (!time.usable) {
     if (o.windowed) return fail(o.log_path + ": --window needs usable time stamps, but " + time.reason);
@@ -226,10 +261,10 @@ int main(int argc, char** argv) {
   for (size_t k = 0; k < log.records.size(); ++k) {
     const slam::LogRecord& r = log.records[k];
     const double t_log = r.scan.stamp - log_start;
-    if (o.windowed && (t_log < o.window_start || (o.window_end > 0 && t_log > o.window_end))) continue;
+    if (o.outside(k, t_log)) continue;
     if (first_in_window == log.records.size()) {
       first_in_window = k;
-      if (r.has_reference && o.windowed)  // where this window's map frame sits in the log's frame
+      if (r.has_reference && (o.windowed || o.scan_window))  // where this window's map frame sits in the log's frame
         std::cerr << "window starts at scan " << k << ", reference pose " << r.reference.x << " " << r.reference.y << " "
                   << r.reference.yaw << "\n";
     } else {
