@@ -808,6 +808,7 @@ TEST(SlamLogCli, ALogWithUnusableStampsIsCutByItsScans) {
   writeCarmenLog(excerpt, coarse);
   const auto by_time = test::runCommand(bin + " " + coarse + " --window 0:10" + out);
   EXPECT_EQ(by_time.status, 2) << by_time.output;
+  EXPECT_NE(by_time.output.find("cut it with --scans instead"), std::string::npos) << by_time.output;
   const auto run = test::runCommand(bin + " " + coarse + " --scans 50:109" + out);
   ASSERT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("window starts at scan 50"), std::string::npos) << run.output;

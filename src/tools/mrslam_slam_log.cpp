@@ -65,6 +65,7 @@ struct Options {
   bool windowed = false;
   size_t first_scan = 0, last_scan = 0;  // --scans: indices in the log, last included; last 0 = to the end
   bool scan_window = false;
+  bool cut() const { return windowed || scan_window; }
   // Whether scan `k`, taken `t_log` s after the log's first, lies outside the window asked for.
   bool outside(size_t k, double t_log) const {
     if (windowed) return t_log < window_start || (window_end > 0 && t_log > window_end);
@@ -234,13 +235,13 @@ int main(int argc, char** argv) {
   }
   if (o.simulated_imu && !log.records.front().has_reference)
     return fail(o.log_path + ": --simulated-imu needs a log with reference poses (the corrected CARMEN logs)");
-  if (o.scan_window && std::max(o.first_scan, o.last_scan) >= log.records.size())
-    return fail(o.log_path + ": --scans reaches scan " + std::to_string(std::max(o.first_scan, o.last_scan)) +
-                ", but the log has " + std::to_string(log.records.size()) + " scans (0 to " +
-                std::to_string(log.records.size() - 1) + ")");
+  if (const size_t reach = std::max(o.first_scan, o.last_scan); o.scan_window && reach >= log.records.size())
+    return fail(o.log_path + ": --scans reaches scan " + std::to_string(reach) + ", but the log has " +
+                std::to_string(log.records.size()) + " scans (0 to " + std::to_string(log.records.size() - 1) + ")");
   const slam::TimeStampCheck time = slam::checkTimeStamps(log);
   if (!time.usable) {
-    if (o.windowed) return fail(o.log_path + ": --window needs usable time stamps, but " + time.reason);
+    if (o.windowed)
+      return fail(o.log_path + ": --window needs usable time stamps, but " + time.reason + "; cut it with --scans instead");
     std::cerr << "mrslam_slam_log: warning: " << o.log_path << ": " << time.reason
               << "; the run follows the order of the lines and no rule uses the time between scans"
               << (o.simulated_imu ? " (the simulated gyro, which needs time, is off)" : "") << "\n";
@@ -264,7 +265,7 @@ int main(int argc, char** argv) {
     if (o.outside(k, t_log)) continue;
     if (first_in_window == log.records.size()) {
       first_in_window = k;
-      if (r.has_reference && (o.windowed || o.scan_window))  // where this window's map frame sits in the log's frame
+      if (r.has_reference && o.cut())  // where this window's map frame sits in the log's frame
         std::cerr << "window starts at scan " << k << ", reference pose " << r.reference.x << " " << r.reference.y << " "
                   << r.reference.yaw << "\n";
     } else {
