@@ -1,4 +1,4 @@
-// Laser scan matching with MRPT's ICP (its pairs found by a bucket grid, grid_indexed_points_map.h).
+// Laser scan matching with point-to-point ICP (point_icp.h).
 //   - PointCloudAligner: aligns points to a fixed reference cloud (used for loop closures
 //     against a submap, and by the local map below);
 //   - ScanToMapMatcher: scan-to-map matching against a local map holding the returns of the
@@ -9,13 +9,13 @@
 
 #include <Eigen/Core>
 #include <deque>
-#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "mrslam/grid.h"
 #include "mrslam/slam/laser_scan.h"
+#include "mrslam/slam/point_icp.h"
 
 namespace mrslam::slam {
 
@@ -26,9 +26,10 @@ struct ScanMatcherParams {
   double max_correspondence = 0.5;    // m, ICP's initial matching distance (halved on convergence)
   double min_correspondence = 0.03;   // m, ICP's final matching distance
   int max_iterations = 60;
-  // MRPT pairs only every n-th scan point in the early iterations; n is chosen per scan so
-  // that about this many points are paired (sparse 180-beam scans keep all of them, dense
-  // 361- and 682-beam scans are paired at a fraction of the cost). 0: pair every point.
+  // ICP pairs only every n-th scan point (a different n-th each time its pairing distance
+  // shrinks); n is chosen per scan so that about this many points are paired (sparse 180-beam
+  // scans keep all of them, dense 361- and 682-beam scans are paired at a fraction of the
+  // cost). 0: pair every point.
   int correspondence_points = 180;
   double min_point_spacing = 0.02;    // m: returns closer than this to the last kept one are skipped
   double min_goodness = 0.3;          // share of points with a correspondence to accept a match
@@ -48,8 +49,7 @@ struct ScanMatch {
 
 class PointCloudAligner {
  public:
-  explicit PointCloudAligner(const ScanMatcherParams& params);
-  ~PointCloudAligner();
+  explicit PointCloudAligner(const ScanMatcherParams& params) : params_(params) {}
 
   void setReference(const std::vector<std::pair<float, float>>& reference);
   bool empty() const;
@@ -60,9 +60,8 @@ class PointCloudAligner {
                   double max_correspondence = 0) const;
 
  private:
-  struct Impl;
   ScanMatcherParams params_;
-  std::unique_ptr<Impl> impl_;
+  PointIcp icp_;
 };
 
 class ScanToMapMatcher {

@@ -1,41 +1,17 @@
 #include "mrslam/slam/scan_matcher.h"
 
-#include <mrpt/maps/CSimplePointsMap.h>
-#include <mrpt/poses/CPosePDFGaussian.h>
-#include <mrpt/slam/CICP.h>
+#include <algorithm>
+#include <cmath>
 
-#include "mrslam/slam/grid_indexed_points_map.h"
 #include "mrslam/slam/likelihood_grid.h"
 
 namespace mrslam::slam {
 
-struct PointCloudAligner::Impl {
-  GridIndexedPointsMap reference;
-  mrpt::slam::CICP icp;
-};
-
-PointCloudAligner::PointCloudAligner(const ScanMatcherParams& params)
-    : params_(params), impl_(std::make_unique<Impl>()) {
-  auto& o = impl_->icp.options;
-  o.maxIterations = static_cast<unsigned>(params.max_iterations);
-  o.thresholdDist = params.max_correspondence;
-  o.thresholdAng = 0.0;
-  o.smallestThresholdDist = params.min_correspondence;
-  o.ALFA = 0.5;
-  o.corresponding_points_decimation = 1;
-  o.onlyUniqueRobust = false;
-}
-
-PointCloudAligner::~PointCloudAligner() = default;
-
 void PointCloudAligner::setReference(const std::vector<std::pair<float, float>>& reference) {
-  auto& map = impl_->reference;
-  map.clear();
-  for (const auto& [x, y] : reference) map.insertPointFast(x, y, 0.0f);
-  map.index();
+  icp_.setReference(reference);
 }
 
-bool PointCloudAligner::empty() const { return impl_->reference.empty(); }
+bool PointCloudAligner::empty() const { return icp_.empty(); }
 
 ScanMatch PointCloudAligner::align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess,
                                    double max_correspondence) const {
@@ -44,34 +20,30 @@ ScanMatch PointCloudAligner::align(const std::vector<std::pair<float, float>>& p
     result.reason = "empty reference";
     return result;
   }
-  mrpt::maps::CSimplePointsMap current;
-  for (const auto& [x, y] : points) current.insertPointFast(x, y, 0.0f);
-  if (current.size() < 20) {
+  if (points.size() < 20) {
     result.reason = "fewer than 20 valid returns";
     return result;
   }
-  mrpt::slam::CICP::TReturnInfo info;
-  // The pairing decimation depends on this scan. (align() is const to callers but tunes the
-  // ICP object it owns: one aligner serves one thread.)
-  impl_->icp.options.corresponding_points_decimation =
-      params_.correspondence_points > 0
-          ? static_cast<uint32_t>(std::max<size_t>(1, (current.size() + params_.correspondence_points - 1) / params_.correspondence_points))
-          : 1;
-  impl_->icp.options.thresholdDist = max_correspondence > 0 ? max_correspondence : params_.max_correspondence;
-  const auto pdf = impl_->icp.Align(&impl_->reference, &current, mrpt::poses::CPose2D(guess.x, guess.y, guess.yaw), info);
-  mrpt::poses::CPosePDFGaussian gaussian;
-  gaussian.copyFrom(*pdf);
-  result.goodness = info.goodness;
-  result.iterations = static_cast<int>(info.nIterations);
-  result.pose = {gaussian.mean.x(), gaussian.mean.y(), gaussian.mean.phi()};
-  Eigen::Matrix3d cov;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) cov(r, c) = gaussian.cov(r, c) * params_.covariance_scale;
+  IcpSchedule schedule;
+  schedule.max_correspondence = max_correspondence > 0 ? max_correspondence : params_.max_correspondence;
+  schedule.min_correspondence = params_.min_correspondence;
+  schedule.max_iterations = params_.max_iterations;
+  if (params_.correspondence_points > 0) {
+    const auto wanted = static_cast<size_t>(params_.correspondence_points);
+    schedule.decimation = std::max<size_t>(1, (points.size() + wanted - 1) / wanted);
+  }
+  const IcpResult icp = icp_.align(points, guess, schedule);
+  result.goodness = icp.goodness;
+  result.iterations = icp.iterations;
+  result.pose = icp.pose;
+  Eigen::Matrix3d cov = icp.covariance * params_.covariance_scale;
   cov(0, 0) = std::max(cov(0, 0), params_.min_sigma_xy * params_.min_sigma_xy);
   cov(1, 1) = std::max(cov(1, 1), params_.min_sigma_xy * params_.min_sigma_xy);
   cov(2, 2) = std::max(cov(2, 2), params_.min_sigma_yaw * params_.min_sigma_yaw);
   result.covariance = cov;
-  if (!cov.allFinite() || !std::isfinite(result.pose.x) || !std::isfinite(result.pose.yaw)) {
+  if (!icp.paired) {
+    result.reason = "ICP found no pairs";
+  } else if (!cov.allFinite() || !std::isfinite(result.pose.x) || !std::isfinite(result.pose.yaw)) {
     result.reason = "ICP returned a non-finite pose or covariance";
   } else if (result.goodness < params_.min_goodness) {
     result.reason = "ICP goodness " + std::to_string(result.goodness) + " below min_goodness";
