@@ -546,6 +546,11 @@ TEST(RobotParams, ConfigFileLoadsAndTyposAreErrors) {
   EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError);
   std::ofstream(path) << "map_resolution: -1\n";
   EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError);
+  for (const char* icp : {"icp_min_correspondence: -0.01\n", "icp_min_correspondence: 0\n",
+                          "icp_max_correspondence: 0.02\n", "icp_max_correspondence: .inf\n"}) {
+    std::ofstream(path) << icp;
+    EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError) << icp;
+  }
   std::remove(path.c_str());
 }
 

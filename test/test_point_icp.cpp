@@ -226,7 +226,7 @@ TEST(PointIcp, PairsNothingWhenTheBoxesMissEachOther) {
   EXPECT_EQ(apart.pose.x, 0) << "the guess is returned";
 }
 
-TEST(PointIcp, EmptyOrNonFiniteInputEndsWithoutPairs) {
+TEST(PointIcp, EmptyOrNonFiniteInputOrAnEndlessScheduleEnds) {
   PointIcp icp;
   EXPECT_TRUE(icp.empty());
   EXPECT_FALSE(icp.align({{1, 1}}, Pose2D{}, {}).paired);
@@ -235,6 +235,14 @@ TEST(PointIcp, EmptyOrNonFiniteInputEndsWithoutPairs) {
   icp.setReference(intelReference(100, 2));
   EXPECT_FALSE(icp.align({}, Pose2D{}, {}).paired);
   EXPECT_FALSE(icp.align({{std::nanf(""), 0}, {0, std::nanf("")}}, Pose2D{}, {}).paired);
+  // Schedules that would never end (a distance that never falls below the final one) end.
+  const Points scan = intelReference(101, 1);
+  IcpSchedule endless;
+  endless.max_iterations = 0;
+  endless.min_correspondence = -1;
+  EXPECT_TRUE(icp.align(scan, Pose2D{}, endless).paired);
+  endless.max_correspondence = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(icp.align(scan, Pose2D{}, endless).paired);
 }
 
 }  // namespace

@@ -22,7 +22,7 @@ namespace mrslam::slam {
 
 struct IcpSchedule {
   double max_correspondence = 0.5;   // m, first pairing distance
-  double min_correspondence = 0.03;  // m, the run ends once the distance would fall below this
+  double min_correspondence = 0.03;  // m, the run ends once the distance would fall below this (> 0)
   int max_iterations = 60;           // then the distance shrinks every iteration until it ends
   // Only every n-th scan point is paired (n = decimation); the first one paired moves on by one
   // each time the distance shrinks, so that every point takes part over the run.

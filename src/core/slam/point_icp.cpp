@@ -135,7 +135,10 @@ IcpResult PointIcp::align(const std::vector<std::pair<float, float>>& points, co
   result.pose = guess;
   if (empty() || points.empty()) return result;
   const size_t decimation = std::max<size_t>(1, schedule.decimation);
+  // The distance halves until it falls below the final one, so the final one must be above 0.
+  const double final_reach = std::max(schedule.min_correspondence, 1e-6);
   double reach = schedule.max_correspondence;
+  if (!std::isfinite(reach)) return result;  // it would never shrink below the final one
   size_t offset = 0;
   std::vector<Pair> last_pairs;
   bool more = true;
@@ -148,15 +151,15 @@ IcpResult PointIcp::align(const std::vector<std::pair<float, float>>& points, co
       result.pose = fit.pose;
       if (still) {
         reach *= kShrink;
-        approaching = reach >= schedule.min_correspondence;
+        approaching = reach >= final_reach;
         offset = (offset + 1) % decimation;
       }
     }
     ++result.iterations;
     // Out of iterations: the distance shrinks every time until it reaches the final one.
     const bool overtime = result.iterations >= schedule.max_iterations;
-    if (overtime && reach > schedule.min_correspondence) reach *= kShrink;
-    more = (approaching && !overtime) || (overtime && reach > schedule.min_correspondence);
+    if (overtime && reach > final_reach) reach *= kShrink;
+    more = (approaching && !overtime) || (overtime && reach > final_reach);
   }
   result.paired = !last_pairs.empty();
   result.goodness = static_cast<double>(decimation * last_pairs.size()) / static_cast<double>(points.size());

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace mrslam::slam {
 
@@ -172,6 +173,10 @@ RobotSlamParams loadRobotSlamParams(const std::string& yaml_path) {
   }
   if (!(p.grid.resolution > 0) || p.matcher.keyframes < 1 || p.matcher.max_iterations < 1)
     throw RobotParamsError(yaml_path + ": map_resolution must be > 0, icp_keyframes and icp_max_iterations >= 1");
+  // ICP halves its pairing distance until it falls below the final one: that must be above 0.
+  if (!(p.matcher.min_correspondence > 0) || !(p.matcher.max_correspondence >= p.matcher.min_correspondence) ||
+      !std::isfinite(p.matcher.max_correspondence))
+    throw RobotParamsError(yaml_path + ": icp_min_correspondence must be > 0 and at most icp_max_correspondence (finite)");
   return p;
 }
 
