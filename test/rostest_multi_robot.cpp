@@ -40,6 +40,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <optional>
 
 #include "mrslam/bench/peer_frame_truth.h"
 #include "mrslam/cell_codec.h"
@@ -584,6 +585,35 @@ TEST(BadFusionConfig, TheMergeNodeletRefusesItLoudly) {
   EXPECT_EQ(status->status[0].level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_NE(status->status[0].message.find("fusion_config refused"), std::string::npos) << status->status[0].message;
   EXPECT_NE(status->status[0].message.find("'min_acceptance'"), std::string::npos) << status->status[0].message;
+}
+
+// A SLAM nodelet given parameters its front end cannot run on (an ICP that would never end)
+// says so on /diagnostics at ERROR level, naming the key, for as long as it runs on
+// config/robot.yaml's defaults instead.
+TEST(BadSlamConfig, TheSlamNodeletRefusesItLoudly) {
+  ros::NodeHandle nh;
+  std::mutex mutex;
+  std::optional<diagnostic_msgs::DiagnosticStatus> status;
+  ros::Subscriber sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        for (const auto& s : m->status)
+          if (s.name.find("bad_slam_config") != std::string::npos) status = s;
+      });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  for (int i = 0; i < 100; ++i) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (status) break;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_TRUE(status) << "no diagnostics from the SLAM nodelet with the bad parameters";
+  EXPECT_EQ(status->level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_NE(status->message.find("SLAM parameters refused"), std::string::npos) << status->message;
+  EXPECT_NE(status->message.find("icp_min_correspondence"), std::string::npos) << status->message;
 }
 
 int main(int argc, char** argv) {

@@ -93,9 +93,13 @@ class SlamNodelet : public nodelet::Nodelet {
     config.param("map_publish_rate", map_rate, map_rate);
     config.param("diagnostics_period", period, period);
     params_ = robotSlamParamsFrom(config);
-    if (!(params_.grid.resolution > 0)) {
-      NODELET_ERROR("map_resolution must be > 0 (got %f): using 0.05", params_.grid.resolution);
-      params_.grid.resolution = 0.05;
+    const std::string params_problem = slam::robotSlamParamsProblem(params_);
+    if (!params_problem.empty()) {
+      // The robot keeps mapping, on the documented defaults (config/robot.yaml's, which the
+      // code shares), and says so for as long as it runs.
+      params_problem_ = "SLAM parameters refused (" + params_problem + "): running on config/robot.yaml's defaults";
+      NODELET_ERROR("%s", params_problem_.c_str());
+      params_ = slam::RobotSlamParams{};
     }
 
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
@@ -469,7 +473,8 @@ class SlamNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     const slam::FrontEndStats s = robot_ ? robot_->stats() : slam::FrontEndStats{};
     const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
-    if (!robot_) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for scans and tf: " + last_problem_);
+    if (!params_problem_.empty()) status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, params_problem_);
+    else if (!robot_) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for scans and tf: " + last_problem_);
     else if (!use_odometry_ && !tf_refusals.holder.empty())
       // Both would be parents of base_frame: tf takes whichever came last.
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN, printable(tf_refusals.holder) + " publishes " + odom_frame_ +
@@ -588,6 +593,7 @@ class SlamNodelet : public nodelet::Nodelet {
   double input_owner_timeout_ = 5.0;
   size_t faults_ = 0;
   std::string last_problem_;
+  std::string params_problem_;  // set once at start-up: the SLAM parameters given were refused
   std::deque<uintptr_t> recent_addresses_;  // of the last 20 grids published
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<GuardedTransformListener> tf_listener_;

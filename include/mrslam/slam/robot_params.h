@@ -27,9 +27,13 @@ struct RobotParamsError : std::runtime_error {
 // simulated gyro's noise model); the offline loader skips them.
 const std::vector<std::string>& rosLayerParamNames();
 
+// What is wrong with values the front end cannot run on (e.g. an ICP that would never end),
+// naming the keys; empty when nothing is.
+std::string robotSlamParamsProblem(const RobotSlamParams& p);
+
 // Reads the keys of robotSlamParams() from a yaml file; absent keys keep their defaults,
-// keys of rosLayerParamNames() are skipped, any other unknown key or a bad value is an
-// error naming the key.
+// keys of rosLayerParamNames() are skipped, any other unknown key, a bad value or a
+// robotSlamParamsProblem() is an error naming the key.
 RobotSlamParams loadRobotSlamParams(const std::string& yaml_path);
 
 }  // namespace mrslam::slam

@@ -148,6 +148,16 @@ const std::vector<std::string>& rosLayerParamNames() {
   return names;
 }
 
+std::string robotSlamParamsProblem(const RobotSlamParams& p) {
+  if (!(p.grid.resolution > 0) || p.matcher.keyframes < 1 || p.matcher.max_iterations < 1)
+    return "map_resolution must be > 0, icp_keyframes and icp_max_iterations >= 1";
+  // ICP halves its pairing distance until it falls below the final one: that must be above 0.
+  if (!(p.matcher.min_correspondence > 0) || !(p.matcher.max_correspondence >= p.matcher.min_correspondence) ||
+      !std::isfinite(p.matcher.max_correspondence))
+    return "icp_min_correspondence must be > 0 and at most icp_max_correspondence (finite)";
+  return "";
+}
+
 RobotSlamParams loadRobotSlamParams(const std::string& yaml_path) {
   const auto& ignored = rosLayerParamNames();
   YAML::Node root;
@@ -171,12 +181,8 @@ RobotSlamParams loadRobotSlamParams(const std::string& yaml_path) {
       throw RobotParamsError(yaml_path + ": bad value for '" + key + "'");
     }
   }
-  if (!(p.grid.resolution > 0) || p.matcher.keyframes < 1 || p.matcher.max_iterations < 1)
-    throw RobotParamsError(yaml_path + ": map_resolution must be > 0, icp_keyframes and icp_max_iterations >= 1");
-  // ICP halves its pairing distance until it falls below the final one: that must be above 0.
-  if (!(p.matcher.min_correspondence > 0) || !(p.matcher.max_correspondence >= p.matcher.min_correspondence) ||
-      !std::isfinite(p.matcher.max_correspondence))
-    throw RobotParamsError(yaml_path + ": icp_min_correspondence must be > 0 and at most icp_max_correspondence (finite)");
+  const std::string problem = robotSlamParamsProblem(p);
+  if (!problem.empty()) throw RobotParamsError(yaml_path + ": " + problem);
   return p;
 }
 
