@@ -4,7 +4,7 @@
 // to a final distance (the schedule of MRPT's classic CICP, which the tracker used before).
 //
 // Ours rather than MRPT's CICP because of what linking it cost: libmrpt-slam brings 116 more
-// shared libraries (its vision module and OpenCV's), 31 MB resident in every process that
+// shared libraries (its vision module and OpenCV's), 32 MB resident in every process that
 // tracks a scan, whether it reads a camera or not. The pairs were already ours
 // (nearest_point_grid.h); the loop, the fit and the covariance are a few dozen lines.
 // test_point_icp.cpp holds it to MRPT's CICP on real scans.
