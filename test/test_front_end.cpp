@@ -546,10 +546,22 @@ TEST(RobotParams, ConfigFileLoadsAndTyposAreErrors) {
   EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError);
   std::ofstream(path) << "map_resolution: -1\n";
   EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError);
-  for (const char* icp : {"icp_min_correspondence: -0.01\n", "icp_min_correspondence: 0\n",
-                          "icp_max_correspondence: 0.02\n", "icp_max_correspondence: .inf\n"}) {
-    std::ofstream(path) << icp;
-    EXPECT_THROW(loadRobotSlamParams(path), RobotParamsError) << icp;
+  // Values that crashed, hung or ran out of memory before every number was range-checked
+  // (a probe set each key to -1, 0, NaN, 100, 1000, 1e6 and 1e12 on a short real log).
+  for (const char* bad : {"icp_min_correspondence: -0.01\n", "icp_min_correspondence: 0\n",
+                          "icp_max_correspondence: 0.02\n", "icp_max_correspondence: .inf\n",
+                          "seed_max_xy: 1e12\n", "seed_max_xy: .nan\n", "seed_sigma: 1e12\n",
+                          "seed_window_sigmas: -1e12\n", "map_initial_size: 0\n", "loop_sigma_xy: -1\n",
+                          "loop_window_xy_max: .nan\n", "odometry_calibration_forgetting: 1e12\n",
+                          "graph_weak_edge_factor: -1\n", "graph_solver: g2o\n", "icp_keyframes: -3\n"}) {
+    std::ofstream(path) << bad;
+    try {
+      loadRobotSlamParams(path);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const RobotParamsError& e) {
+      const std::string key(bad, std::string(bad).find(':'));
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what() << " does not name " << key;
+    }
   }
   std::remove(path.c_str());
 }

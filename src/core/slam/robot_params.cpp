@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 namespace mrslam::slam {
 
@@ -148,13 +149,88 @@ const std::vector<std::string>& rosLayerParamNames() {
   return names;
 }
 
+namespace {
+
+// Upper bounds of the parameters whose size sets how much memory or time a scan takes (search
+// windows, kernels, map sizes) or which a formula needs below a limit; far above any working
+// value, so that a typo (1e12 for 1.2) is refused instead of allocating or looping without end.
+struct Limit {
+  const char* name;
+  double max;
+  bool zero_allowed;  // false: must be above 0 (a divisor or a halving that must end)
+};
+const Limit kLimits[] = {
+    {"map_resolution", 10.0, false},
+    {"map_initial_size", 10000.0, false},
+    {"map_max_insert_range", 1000.0, true},
+    {"map_no_return_range", 300.0, true},
+    {"map_occupied_update", 0.999, false},  // probabilities
+    {"map_free_update", 0.999, false},
+    {"icp_max_correspondence", 100.0, false},
+    {"icp_min_correspondence", 100.0, false},
+    {"seed_window_sigmas", 100.0, true},
+    {"seed_max_xy", 50.0, true},
+    {"seed_max_yaw", 3.15, true},  // rad
+    {"seed_min_yaw", 3.15, true},
+    {"loop_window_yaw", 3.15, true},
+    {"loop_window_yaw_max", 3.15, true},
+    {"loop_lone_window_yaw", 3.15, true},
+    {"seed_resolution", 10.0, false},
+    {"seed_sigma", 10.0, false},
+    {"seed_local_path", 10000.0, true},
+    {"loop_window_xy", 100.0, true},
+    {"loop_window_xy_max", 100.0, true},
+    {"loop_lone_window_xy", 100.0, true},
+    {"loop_resolution", 10.0, false},
+    {"loop_sigma", 10.0, false},
+    {"loop_sigma_xy", 100.0, false},
+    {"loop_sigma_yaw", 100.0, false},
+    {"loop_matcher_cache_mb", 1e6, true},
+    {"odometry_calibration_forgetting", 1.0, false},
+    {"odometry_calibration_max_scale_error", 0.99, true},
+    {"graph_weak_edge_factor", 1e6, false},
+};
+
+std::string number(double v) {
+  std::ostringstream text;
+  text << v;
+  return text.str();
+}
+
+// What is wrong with one numeric parameter's value: every number must be finite and >= 0, and
+// those of kLimits within their limits.
+std::string rangeProblem(const NamedParam& named) {
+  if (const auto* field = std::get_if<int*>(&named.field))
+    return **field < 0 ? named.name + " must be >= 0 (got " + std::to_string(**field) + ")" : "";
+  const auto* field = std::get_if<double*>(&named.field);
+  if (!field) return "";
+  const double v = **field;
+  const Limit* limit = nullptr;
+  for (const Limit& l : kLimits)
+    if (named.name == l.name) limit = &l;
+  const bool ok = std::isfinite(v) && v >= 0 && (!limit || (v <= limit->max && (limit->zero_allowed || v > 0)));
+  if (ok) return "";
+  const std::string range = !limit              ? "a finite number >= 0"
+                            : limit->zero_allowed ? "within [0, " + number(limit->max) + "]"
+                                                  : "within (0, " + number(limit->max) + "]";
+  return named.name + " must be " + range + " (got " + number(v) + ")";
+}
+
+}  // namespace
+
 std::string robotSlamParamsProblem(const RobotSlamParams& p) {
-  if (!(p.grid.resolution > 0) || p.matcher.keyframes < 1 || p.matcher.max_iterations < 1)
-    return "map_resolution must be > 0, icp_keyframes and icp_max_iterations >= 1";
-  // ICP halves its pairing distance until it falls below the final one: that must be above 0.
-  if (!(p.matcher.min_correspondence > 0) || !(p.matcher.max_correspondence >= p.matcher.min_correspondence) ||
-      !std::isfinite(p.matcher.max_correspondence))
-    return "icp_min_correspondence must be > 0 and at most icp_max_correspondence (finite)";
+  RobotSlamParams copy = p;
+  for (const NamedParam& named : robotSlamParams(copy)) {
+    const std::string problem = rangeProblem(named);
+    if (!problem.empty()) return problem;
+  }
+  if (p.matcher.keyframes < 1 || p.matcher.max_iterations < 1)
+    return "icp_keyframes and icp_max_iterations must be >= 1";
+  // ICP halves its pairing distance until it falls below the final one.
+  if (!(p.matcher.max_correspondence >= p.matcher.min_correspondence))
+    return "icp_min_correspondence must be at most icp_max_correspondence";
+  if (p.graph.solver != "ceres" && p.graph.solver != "mrpt")
+    return "graph_solver must be ceres or mrpt (got '" + p.graph.solver + "')";
   return "";
 }
 
