@@ -37,6 +37,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -556,6 +557,17 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
   }
 }
 
+// Waits up to 10 s (wall) for `arrived`, which is read under `mutex`.
+void waitUntil(std::mutex& mutex, const std::function<bool()>& arrived) {
+  for (int i = 0; i < 100; ++i) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (arrived()) return;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+}
+
 }  // namespace
 
 // A merge nodelet given a fusion yaml with a value out of range (test/bad_fusion.yaml) says so
@@ -572,13 +584,7 @@ TEST(BadFusionConfig, TheMergeNodeletRefusesItLoudly) {
       });
   ros::AsyncSpinner spinner(1);
   spinner.start();
-  for (int i = 0; i < 100; ++i) {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (status) break;
-    }
-    ros::WallDuration(0.1).sleep();
-  }
+  waitUntil(mutex, [&] { return static_cast<bool>(status); });
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_TRUE(status) << "no merge_status from the nodelet with the bad fusion yaml";
   ASSERT_EQ(status->status.size(), 1u);
@@ -602,13 +608,7 @@ TEST(BadSlamConfig, TheSlamNodeletRefusesItLoudly) {
       });
   ros::AsyncSpinner spinner(1);
   spinner.start();
-  for (int i = 0; i < 100; ++i) {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (status) break;
-    }
-    ros::WallDuration(0.1).sleep();
-  }
+  waitUntil(mutex, [&] { return static_cast<bool>(status); });
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_TRUE(status) << "no diagnostics from the SLAM nodelet with the bad parameters";
   EXPECT_EQ(status->level, diagnostic_msgs::DiagnosticStatus::ERROR);
