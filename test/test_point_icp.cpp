@@ -215,6 +215,64 @@ TEST(PointIcp, AlignsRealIntelScansAsMrptsIcpDid) {
               compared, accepted, alike, farthest_apart, our_error / accepted, their_error / accepted);
 }
 
+TEST(NearestPointGrid, ASkippedRangeIsNeverTheAnswer) {
+  std::mt19937 rng(11);
+  const Cloud cloud = wallsCloud(rng);
+  NearestPointGrid grid;
+  grid.build(cloud.x.data(), cloud.y.data(), cloud.x.size(), 0.1f);
+  const size_t first = 1000, last = 3000;  // walls 5 to 14 of the 30
+  std::uniform_int_distribution<size_t> point(0, cloud.x.size() - 3);
+  int inside = 0;
+  for (int q = 0; q < 2000; ++q) {
+    const size_t near = point(rng);
+    const float x = cloud.x[near] + 0.01f, y = cloud.y[near];
+    // What a brute force search finds outside the range.
+    float expected = 0.5f * 0.5f;
+    for (size_t i = 0; i < cloud.x.size(); ++i) {
+      if ((i >= first && i < last) || !std::isfinite(cloud.x[i]) || !std::isfinite(cloud.y[i])) continue;
+      const float dx = cloud.x[i] - x, dy = cloud.y[i] - y;
+      expected = std::min(expected, dx * dx + dy * dy);
+    }
+    const auto got = grid.nearestExcept(x, y, 0.5f, first, last);
+    inside += near >= first && near < last;
+    if (expected >= 0.25f) {
+      EXPECT_EQ(got.index, -1);
+      continue;
+    }
+    ASSERT_GE(got.index, 0);
+    EXPECT_TRUE(got.index < static_cast<int64_t>(first) || got.index >= static_cast<int64_t>(last)) << got.index;
+    EXPECT_EQ(got.dist_sq, expected);
+  }
+  EXPECT_GT(inside, 300) << "many queries lie on the range's own walls";
+  // An empty range, or one beyond every index, leaves the plain answer.
+  EXPECT_EQ(grid.nearestExcept(cloud.x[5], cloud.y[5], 0.5f, 7, 7).index, grid.nearest(cloud.x[5], cloud.y[5], 0.5f).index);
+  EXPECT_EQ(grid.nearestExcept(cloud.x[5], cloud.y[5], 0.5f, size_t{1} << 40, size_t{1} << 41).index, 5);
+}
+
+// A reference holding the scan itself pins the scan where it is; leaving its own points out
+// (as the final refinement does, pose_refinement.h) aligns it to the rest.
+TEST(PointIcp, ASkippedRangeOfTheReferenceIsNeverPaired) {
+  const Points scan = intelReference(100, 1);
+  Points reference = scan;  // the scan itself, where it is...
+  for (const auto& [x, y] : scan) reference.emplace_back(x + 0.04f, y);  // ...and a copy 4 cm along x
+  PointIcp icp;
+  icp.setReference(reference);
+  IcpSchedule schedule;
+  schedule.max_correspondence = 0.2;
+  const IcpResult pinned = icp.align(scan, Pose2D{}, schedule);
+  EXPECT_NEAR(pinned.pose.x, 0, 1e-4);
+  const IcpResult skipped = icp.align(scan, Pose2D{}, schedule, SkipRange{0, scan.size()});
+  ASSERT_TRUE(skipped.paired);
+  EXPECT_NEAR(skipped.pose.x, 0.04, 1e-3);
+  EXPECT_NEAR(skipped.pose.y, 0, 1e-3);
+  EXPECT_GT(skipped.goodness, 0.9);
+  // Indices are those given to setReference(), non-finite points included.
+  Points with_nan{{std::nanf(""), 0}};
+  with_nan.insert(with_nan.end(), reference.begin(), reference.end());
+  icp.setReference(with_nan);
+  EXPECT_NEAR(icp.align(scan, Pose2D{}, schedule, SkipRange{0, scan.size() + 1}).pose.x, 0.04, 1e-3);
+}
+
 TEST(PointIcp, PairsNothingWhenTheBoxesMissEachOther) {
   PointIcp icp;
   icp.setReference({{0, 0}, {1, 0}});

@@ -150,6 +150,11 @@ struct GraphParams {
                                          // many nodes
   std::string solver = "ceres";          // or "mrpt"
   int solver_iterations = 50;
+  // When the run ends (finish()), every node's scan is aligned to all the others' (pose_refinement.h).
+  int refine_rounds = 3;                 // 0: off
+  double refine_max_correspondence = 0.2;  // m: ICP's first pairing distance (then down to
+                                           // icp_min_correspondence)
+  double refine_min_goodness = 0.5;      // share of a node's points paired, or it stays where it was
 };
 
 struct RobotSlamParams {
@@ -225,6 +230,7 @@ struct FrontEndStats {
   size_t odometry_missed_turns = 0;
   size_t seeds_alone = 0;  // matched by the correlative seed alone (ICP could not confirm it)
   size_t nodes = 0, submaps = 0, submaps_redrawn = 0;
+  size_t nodes_refined = 0;  // aligned to the other nodes' scans when the run ended
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
   size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed
   size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;

@@ -131,6 +131,8 @@ class GraphSlam : public FrontEnd {
   PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
   // Optimises; drops closures the optimum disagrees with. True when the poses moved.
   bool optimize();
+  // When the run ends: each node's scan aligned to all the others' (pose_refinement.h).
+  void refineNodes();
 
   RobotSlamParams params_;
   LocalTracker tracker_;

@@ -30,11 +30,27 @@ class NearestPointGrid {
   // The point nearest to (x, y) among those closer than `max_dist`. Exact: a point is only left
   // out when it is provably farther than the one returned (or than `max_dist`).
   Nearest nearest(float x, float y, float max_dist) const;
+  // The same, leaving out the points given to build() at indices [skip_first, skip_last): a
+  // scan's own points, where the reference holds every scan (pose_refinement.h).
+  Nearest nearestExcept(float x, float y, float max_dist, size_t skip_first, size_t skip_last) const;
 
  private:
+  // A point of the given index may be the answer: every one, or every one outside a range. A
+  // template parameter, so that the tracker's queries (most of a run's time) test nothing.
+  struct Any {
+    bool operator()(uint32_t) const { return true; }
+  };
+  struct Outside {
+    uint32_t first, count;
+    bool operator()(uint32_t index) const { return index - first >= count; }  // unsigned: below first wraps
+  };
+  template <typename Accept>
+  Nearest nearestIf(float x, float y, float max_dist, Accept accept) const;
   // Scans the cells of ring `r` (Chebyshev distance r from cell (cx, cy)) that lie in the grid.
-  void scanRing(int cx, int cy, int r, float x, float y, Nearest& best) const;
-  void scanCell(int gx, int gy, float x, float y, Nearest& best) const;
+  template <typename Accept>
+  void scanRing(int cx, int cy, int r, float x, float y, Accept accept, Nearest& best) const;
+  template <typename Accept>
+  void scanCell(int gx, int gy, float x, float y, Accept accept, Nearest& best) const;
 
   float cell_ = 1;
   float x0_ = 0, y0_ = 0;  // the grid's lower-left corner

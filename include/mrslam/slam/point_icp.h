@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -39,25 +40,34 @@ struct IcpResult {
   bool paired = false;        // false: not a single pair was found
 };
 
+// Reference points, by their index in what setReference() was given, that are never paired:
+// [first, last), none by default. A reference holding every scan of a map leaves out the scan
+// being aligned (pose_refinement.h).
+struct SkipRange {
+  size_t first = 0, last = 0;
+};
+
 class PointIcp {
  public:
   void setReference(const std::vector<std::pair<float, float>>& points);
   bool empty() const { return xs_.empty(); }
   IcpResult align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess,
-                  const IcpSchedule& schedule) const;
+                  const IcpSchedule& schedule, SkipRange skip = {}) const;
 
  private:
   struct Pair {
     float ref_x, ref_y;  // the reference point
     float x, y;          // the scan point, in the scan's frame
   };
-  // The pairs of every `decimation`-th scan point from `offset` on, the points moved by `pose`.
-  // None when the moved points' bounding box misses the reference's.
+  // The pairs of every `decimation`-th scan point from `offset` on, the points moved by `pose`,
+  // never with a reference point in `skip` (here in xs_'s indices). None when the moved points'
+  // bounding box misses the reference's.
   std::vector<Pair> pairs(const std::vector<std::pair<float, float>>& points, const Pose2D& pose, double reach,
-                          size_t decimation, size_t offset) const;
+                          size_t decimation, size_t offset, SkipRange skip) const;
 
   NearestPointGrid grid_;
   std::vector<float> xs_, ys_;
+  std::vector<uint32_t> source_;  // each of xs_'s index in setReference's input (non-finite ones left out)
   float x_min_ = 0, x_max_ = 0, y_min_ = 0, y_max_ = 0;
 };
 

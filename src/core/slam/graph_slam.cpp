@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "mrslam/slam/ekf_front_end.h"
+#include "mrslam/slam/pose_refinement.h"
 
 namespace mrslam::slam {
 
@@ -241,9 +242,30 @@ void GraphSlam::finish() {
   }
   if (unoptimized_closures_ > 0) optimize();
   // No scan follows: the search grids would only add to the peak of composing and writing the
-  // map (Freiburg campus: 36 MB). A scan that does come builds them again.
+  // map (Freiburg campus: 36 MB), and of the refinement. A scan that does come builds them again.
   closer_.releaseCache();
   tracker_.releaseSearchGrids();
+  refineNodes();
+}
+
+void GraphSlam::refineNodes() {
+  NodeRefinementParams refinement;
+  refinement.rounds = params_.graph.refine_rounds;
+  refinement.max_correspondence = params_.graph.refine_max_correspondence;
+  refinement.min_correspondence = params_.matcher.min_correspondence;
+  refinement.min_goodness = params_.graph.refine_min_goodness;
+  refinement.correspondence_points = params_.matcher.correspondence_points;
+  if (refinement.rounds < 1 || nodes_.size() < 2) return;
+  std::vector<const Points2*> scans;
+  scans.reserve(nodes_.size());
+  for (const Node& node : nodes_) scans.push_back(&node.points);
+  RefinedPoses refined = refineNodePoses(scans, poses_, refinement);
+  // The poses leave the graph's optimum: a scan that comes after this continues from them, and
+  // the next optimisation starts from them and returns to the graph's optimum.
+  poses_ = std::move(refined.poses);
+  stats_.nodes_refined = refined.moved;
+  followOptimizedPoses();
+  ++map_version_;
 }
 
 bool GraphSlam::agreesWithGraph(const Closure& c) const {

@@ -57,34 +57,37 @@ void NearestPointGrid::build(const float* xs, const float* ys, size_t n, float c
   }
 }
 
-void NearestPointGrid::scanCell(int gx, int gy, float x, float y, Nearest& best) const {
+template <typename Accept>
+void NearestPointGrid::scanCell(int gx, int gy, float x, float y, Accept accept, Nearest& best) const {
   const size_t k = static_cast<size_t>(gy) * nx_ + gx;
   for (uint32_t s = start_[k]; s < start_[k + 1]; ++s) {
     const float dx = px_[s] - x, dy = py_[s] - y;
     const float d = dx * dx + dy * dy;
-    if (d < best.dist_sq) {
+    if (d < best.dist_sq && accept(index_[s])) {
       best.dist_sq = d;
       best.index = index_[s];
     }
   }
 }
 
-void NearestPointGrid::scanRing(int cx, int cy, int r, float x, float y, Nearest& best) const {
+template <typename Accept>
+void NearestPointGrid::scanRing(int cx, int cy, int r, float x, float y, Accept accept, Nearest& best) const {
   const int x_lo = std::max(0, cx - r), x_hi = std::min(nx_ - 1, cx + r);
   if (r == 0) {
-    if (cx >= 0 && cx < nx_ && cy >= 0 && cy < ny_) scanCell(cx, cy, x, y, best);
+    if (cx >= 0 && cx < nx_ && cy >= 0 && cy < ny_) scanCell(cx, cy, x, y, accept, best);
     return;
   }
   for (const int gy : {cy - r, cy + r})  // the ring's bottom and top rows
     if (gy >= 0 && gy < ny_)
-      for (int gx = x_lo; gx <= x_hi; ++gx) scanCell(gx, gy, x, y, best);
+      for (int gx = x_lo; gx <= x_hi; ++gx) scanCell(gx, gy, x, y, accept, best);
   const int y_lo = std::max(0, cy - r + 1), y_hi = std::min(ny_ - 1, cy + r - 1);
   for (const int gx : {cx - r, cx + r})  // its left and right columns, corners excluded
     if (gx >= 0 && gx < nx_)
-      for (int gy = y_lo; gy <= y_hi; ++gy) scanCell(gx, gy, x, y, best);
+      for (int gy = y_lo; gy <= y_hi; ++gy) scanCell(gx, gy, x, y, accept, best);
 }
 
-NearestPointGrid::Nearest NearestPointGrid::nearest(float x, float y, float max_dist) const {
+template <typename Accept>
+NearestPointGrid::Nearest NearestPointGrid::nearestIf(float x, float y, float max_dist, Accept accept) const {
   Nearest best;
   if (index_.empty() || !(max_dist > 0) || !std::isfinite(x) || !std::isfinite(y)) return best;
   // No two points of a map are a thousand kilometres apart; the cap keeps the cell arithmetic
@@ -102,12 +105,25 @@ NearestPointGrid::Nearest NearestPointGrid::nearest(float x, float y, float max_
   const int first = std::max({0, -cx, cx - (nx_ - 1), -cy, cy - (ny_ - 1)});  // the first ring that meets the grid
   const int last = std::max({cx, nx_ - 1 - cx, cy, ny_ - 1 - cy});           // the ring that covers all of it
   for (int r = first; r <= last; ++r) {
-    scanRing(cx, cy, r, x, y, best);
+    scanRing(cx, cy, r, x, y, accept, best);
     const float unsearched = r * cell_ + margin;
     if (unsearched >= max_dist || (best.index >= 0 && best.dist_sq <= unsearched * unsearched)) break;
   }
   if (best.index < 0) best.dist_sq = 0;
   return best;
+}
+
+NearestPointGrid::Nearest NearestPointGrid::nearest(float x, float y, float max_dist) const {
+  return nearestIf(x, y, max_dist, Any{});
+}
+
+NearestPointGrid::Nearest NearestPointGrid::nearestExcept(float x, float y, float max_dist, size_t skip_first,
+                                                          size_t skip_last) const {
+  // Indices are 32 bits (index_): a range that starts beyond them leaves nothing out.
+  constexpr size_t kMaxIndex = std::numeric_limits<uint32_t>::max();
+  if (skip_last <= skip_first || skip_first > kMaxIndex) return nearest(x, y, max_dist);
+  const size_t count = std::min(skip_last - skip_first, kMaxIndex);
+  return nearestIf(x, y, max_dist, Outside{static_cast<uint32_t>(skip_first), static_cast<uint32_t>(count)});
 }
 
 }  // namespace mrslam::slam

@@ -87,10 +87,13 @@ bool settled(const Pose2D& before, const Pose2D& after) {
 void PointIcp::setReference(const std::vector<std::pair<float, float>>& points) {
   xs_.clear();
   ys_.clear();
-  for (const auto& [x, y] : points) {
+  source_.clear();
+  for (size_t i = 0; i < points.size(); ++i) {
+    const auto [x, y] = points[i];
     if (!std::isfinite(x) || !std::isfinite(y)) continue;
     xs_.push_back(x);
     ys_.push_back(y);
+    source_.push_back(static_cast<uint32_t>(i));  // the grid's indices are 32 bits too
   }
   // m: on the whole Freiburg 079 and Intel logs, cells of 0.03-0.2 m were all faster than a
   // k-d tree; 0.1 m was fastest (smaller cells cost more in cells visited than they save).
@@ -103,7 +106,7 @@ void PointIcp::setReference(const std::vector<std::pair<float, float>>& points) 
 }
 
 std::vector<PointIcp::Pair> PointIcp::pairs(const std::vector<std::pair<float, float>>& points, const Pose2D& pose,
-                                            double reach, size_t decimation, size_t offset) const {
+                                            double reach, size_t decimation, size_t offset, SkipRange skip) const {
   std::vector<Pair> found;
   const float c = static_cast<float>(std::cos(pose.yaw)), s = static_cast<float>(std::sin(pose.yaw));
   const float tx = static_cast<float>(pose.x), ty = static_cast<float>(pose.y);
@@ -121,7 +124,7 @@ std::vector<PointIcp::Pair> PointIcp::pairs(const std::vector<std::pair<float, f
   const float grid_reach = static_cast<float>(reach) * 1.0001f + 1e-6f;
   for (size_t i = offset; i < points.size(); i += decimation) {
     const auto [x, y] = moved[i];
-    const auto nearest = grid_.nearest(x, y, grid_reach);
+    const auto nearest = grid_.nearestExcept(x, y, grid_reach, skip.first, skip.last);
     if (nearest.index < 0 || !(nearest.dist_sq < reach * reach)) continue;
     const auto j = static_cast<size_t>(nearest.index);
     found.push_back({xs_[j], ys_[j], points[i].first, points[i].second});
@@ -130,7 +133,7 @@ std::vector<PointIcp::Pair> PointIcp::pairs(const std::vector<std::pair<float, f
 }
 
 IcpResult PointIcp::align(const std::vector<std::pair<float, float>>& points, const Pose2D& guess,
-                          const IcpSchedule& schedule) const {
+                          const IcpSchedule& schedule, SkipRange skip) const {
   IcpResult result;
   result.pose = guess;
   if (empty() || points.empty()) return result;
@@ -139,11 +142,14 @@ IcpResult PointIcp::align(const std::vector<std::pair<float, float>>& points, co
   const double final_reach = std::max(schedule.min_correspondence, 1e-6);
   double reach = schedule.max_correspondence;
   if (!std::isfinite(reach)) return result;  // it would never shrink below the final one
+  // The range in xs_'s indices: the kept points from skip.first up to skip.last.
+  const SkipRange kept_skip{static_cast<size_t>(std::lower_bound(source_.begin(), source_.end(), skip.first) - source_.begin()),
+                            static_cast<size_t>(std::lower_bound(source_.begin(), source_.end(), skip.last) - source_.begin())};
   size_t offset = 0;
   std::vector<Pair> last_pairs;
   bool more = true;
   while (more) {
-    last_pairs = pairs(points, result.pose, reach, decimation, offset);
+    last_pairs = pairs(points, result.pose, reach, decimation, offset, kept_skip);
     const Fit fit = fitRigid(last_pairs);
     bool approaching = fit.ok;
     if (fit.ok) {

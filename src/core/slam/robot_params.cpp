@@ -137,6 +137,9 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"graph_optimize_every", &graph.optimize_every},
       {"graph_solver", &graph.solver},
       {"graph_solver_iterations", &graph.solver_iterations},
+      {"graph_refine_rounds", &graph.refine_rounds},
+      {"graph_refine_max_correspondence", &graph.refine_max_correspondence},
+      {"graph_refine_min_goodness", &graph.refine_min_goodness},
   };
 }
 
@@ -189,6 +192,8 @@ const Limit kLimits[] = {
     {"odometry_calibration_forgetting", 1.0, false},
     {"odometry_calibration_max_scale_error", 0.99, true},
     {"graph_weak_edge_factor", 1e6, false},
+    {"graph_refine_max_correspondence", 100.0, false},
+    {"graph_refine_min_goodness", 1.0, true},
 };
 
 std::string number(double v) {
@@ -229,6 +234,9 @@ std::string robotSlamParamsProblem(const RobotSlamParams& p) {
   // ICP halves its pairing distance until it falls below the final one.
   if (!(p.matcher.max_correspondence >= p.matcher.min_correspondence))
     return "icp_min_correspondence must be at most icp_max_correspondence";
+  if (p.graph.refine_rounds > 100) return "graph_refine_rounds must be at most 100 (got " + std::to_string(p.graph.refine_rounds) + ")";
+  if (!(p.graph.refine_max_correspondence >= p.matcher.min_correspondence))
+    return "graph_refine_max_correspondence must be at least icp_min_correspondence";
   if (p.graph.solver != "ceres" && p.graph.solver != "mrpt")
     return "graph_solver must be ceres or mrpt (got '" + p.graph.solver + "')";
   return "";
