@@ -9,8 +9,10 @@
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Imu.h>
+#include <std_srvs/Trigger.h>
 #include <tf2/utils.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -34,6 +36,7 @@ struct Recorder {
   std::mutex mutex;
   std::map<uint64_t, Pose2D> estimate, reference;  // by stamp (ns)
   nav_msgs::OccupancyGrid::ConstPtr map;
+  nav_msgs::Path::ConstPtr path;
   std::set<std::string> published_addresses, merge_received_addresses;
   long scans_waited_for_gyro = -1, scans_gyro_did_not_cover = -1;  // the SLAM nodelet's last report
   void onDiagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
@@ -62,7 +65,57 @@ struct Recorder {
     std::lock_guard<std::mutex> lock(mutex);
     map = m;
   }
+  void onPath(const nav_msgs::Path::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    path = m;
+  }
+  // The global error (500 seeded random pairs) of a published trajectory, against the reference
+  // poses of the same stamps (mutex held).
+  double globalError(const nav_msgs::Path& trajectory) const {
+    std::vector<Pose2D> estimate, matched;
+    for (const auto& p : trajectory.poses) {
+      const auto ref = reference.find(p.header.stamp.toNSec());
+      if (ref == reference.end()) continue;
+      estimate.push_back(toPose(p.pose));
+      matched.push_back(ref->second);
+    }
+    if (estimate.size() < 20) return 1e9;
+    return mrslam::bench::relationError(estimate, matched, mrslam::bench::randomPairs(estimate.size(), 500, 1)).trans_mean;
+  }
 };
+
+// The run is over: ~finish_run searches the last submap, refines every node against all the
+// others (pose_refinement.h) and publishes the map and the trajectory again.
+void checkFinishRun(Recorder& rec, double max_global) {
+  nav_msgs::OccupancyGrid::ConstPtr map_before;
+  nav_msgs::Path::ConstPtr path_before;
+  {
+    std::lock_guard<std::mutex> lock(rec.mutex);
+    map_before = rec.map;
+    path_before = rec.path;
+  }
+  ASSERT_TRUE(path_before) << "no trajectory on /robot1/trajectory";
+  const std::string service = "/robot1/slam/finish_run";
+  ASSERT_TRUE(ros::service::waitForService(service, ros::Duration(10.0))) << service;
+  std_srvs::Trigger finish;
+  ASSERT_TRUE(ros::service::call(service, finish));
+  std::printf("%s: %s\n", service.c_str(), finish.response.message.c_str());
+  EXPECT_TRUE(finish.response.success) << finish.response.message;
+  EXPECT_NE(finish.response.message.find("nodes refined"), std::string::npos);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (ros::WallTime::now() < deadline) {
+    ros::WallDuration(0.1).sleep();
+    std::lock_guard<std::mutex> lock(rec.mutex);
+    if (rec.map != map_before && rec.path != path_before) break;
+  }
+  std::lock_guard<std::mutex> lock(rec.mutex);
+  EXPECT_NE(rec.map, map_before) << "no map published after finish_run";
+  ASSERT_NE(rec.path, path_before) << "no trajectory published after finish_run";
+  const double before = rec.globalError(*path_before), after = rec.globalError(*rec.path);
+  std::printf("finish_run: global error of the published trajectory %.3f m before, %.3f m after\n", before, after);
+  EXPECT_LT(after, max_global);
+  EXPECT_LT(after, before + 0.02) << "finishing the run made the map worse";
+}
 
 // Republishes gyro samples `delay` wall seconds after they arrived.
 class LateGyro {
@@ -108,6 +161,7 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
   auto pose_sub = nh.subscribe("/robot1/pose", 1000, &Recorder::onPose, &rec);
   auto ref_sub = nh.subscribe("/robot1/reference_pose", 1000, &Recorder::onReference, &rec);
   auto map_sub = nh.subscribe("/robot1/map", 1, &Recorder::onMap, &rec);
+  auto path_sub = nh.subscribe("/robot1/trajectory", 1, &Recorder::onPath, &rec);
   auto diagnostics_sub = nh.subscribe("/diagnostics", 100, &Recorder::onDiagnostics, &rec);
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
@@ -124,53 +178,56 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
     if (static_cast<int>(rec.estimate.size()) >= expected_scans && rec.map) break;
   }
   ros::WallDuration(2.5).sleep();  // diagnostics (1 Hz) report the last grids
-  std::lock_guard<std::mutex> lock(rec.mutex);
-  ASSERT_TRUE(rec.map) << "no grid on /robot1/map";
-  EXPECT_EQ(rec.map->header.frame_id, "robot1/map");
-  EXPECT_EQ(rec.map->data.size(), static_cast<size_t>(rec.map->info.width) * rec.map->info.height);
-  const size_t known = std::count_if(rec.map->data.begin(), rec.map->data.end(), [](int8_t v) { return v >= 0; });
-  EXPECT_GT(known, 10000u) << "the map has hardly any known cells";
-  EXPECT_TRUE(map_to_odom) << "no robot1/map -> robot1/odom transform";
-  EXPECT_GE(static_cast<int>(rec.estimate.size()), expected_scans * 9 / 10) << "poses missing";
+  {
+    std::lock_guard<std::mutex> lock(rec.mutex);
+    ASSERT_TRUE(rec.map) << "no grid on /robot1/map";
+    EXPECT_EQ(rec.map->header.frame_id, "robot1/map");
+    EXPECT_EQ(rec.map->data.size(), static_cast<size_t>(rec.map->info.width) * rec.map->info.height);
+    const size_t known = std::count_if(rec.map->data.begin(), rec.map->data.end(), [](int8_t v) { return v >= 0; });
+    EXPECT_GT(known, 10000u) << "the map has hardly any known cells";
+    EXPECT_TRUE(map_to_odom) << "no robot1/map -> robot1/odom transform";
+    EXPECT_GE(static_cast<int>(rec.estimate.size()), expected_scans * 9 / 10) << "poses missing";
 
-  std::vector<Pose2D> estimate, reference;
-  for (const auto& [stamp, pose] : rec.estimate) {
-    const auto ref = rec.reference.find(stamp);
-    if (ref == rec.reference.end()) continue;
-    estimate.push_back(pose);
-    reference.push_back(ref->second);
-  }
-  ASSERT_GT(estimate.size(), 20u);
-  const auto step = mrslam::bench::relationError(estimate, reference, mrslam::bench::consecutivePairs(estimate.size(), 1));
-  std::printf("excerpt: %zu poses, scan-to-scan error %.3f m, %.2f deg\n", estimate.size(), step.trans_mean,
-              step.rot_mean * 180 / M_PI);
-  EXPECT_LT(step.trans_mean, max_trans);
-  EXPECT_LT(step.rot_mean * 180 / M_PI, max_rot_deg);
-  // Over the whole excerpt (500 seeded random pairs, as scripts/bench_slam's global figure): a
-  // turn integrated wrongly once bends everything after it, which the steps barely show.
-  const auto global = mrslam::bench::relationError(estimate, reference, mrslam::bench::randomPairs(estimate.size(), 500, 1));
-  std::printf("excerpt: global error %.3f m, %.2f deg\n", global.trans_mean, global.rot_mean * 180 / M_PI);
-  EXPECT_LT(global.trans_mean, max_global);
-  if (gyro_delay > 0) {
-    std::printf("gyro %.2f s late: %ld scans waited for it, %ld it did not cover\n", gyro_delay,
-                rec.scans_waited_for_gyro, rec.scans_gyro_did_not_cover);
-    EXPECT_GT(rec.scans_waited_for_gyro, expected_scans / 2) << "scans did not wait for the late gyro";
-    // Without the wait every interval would end past the newest sample (2 s of the bag's clock)
-    // and go without the gyro. A loaded CI host still leaves a few without it (one full run: 2
-    // of 122), where samples of this 1000-a-second stream were lost or a scan waited out
-    // imu_wait; those scans go without the gyro, as they should, and the map holds (above).
-    EXPECT_GE(rec.scans_gyro_did_not_cover, 0);
-    EXPECT_LT(rec.scans_gyro_did_not_cover, expected_scans / 10) << "a gyro late by less than imu_wait left scans without it";
-  }
+    std::vector<Pose2D> estimate, reference;
+    for (const auto& [stamp, pose] : rec.estimate) {
+      const auto ref = rec.reference.find(stamp);
+      if (ref == rec.reference.end()) continue;
+      estimate.push_back(pose);
+      reference.push_back(ref->second);
+    }
+    ASSERT_GT(estimate.size(), 20u);
+    const auto step = mrslam::bench::relationError(estimate, reference, mrslam::bench::consecutivePairs(estimate.size(), 1));
+    std::printf("excerpt: %zu poses, scan-to-scan error %.3f m, %.2f deg\n", estimate.size(), step.trans_mean,
+                step.rot_mean * 180 / M_PI);
+    EXPECT_LT(step.trans_mean, max_trans);
+    EXPECT_LT(step.rot_mean * 180 / M_PI, max_rot_deg);
+    // Over the whole excerpt (500 seeded random pairs, as scripts/bench_slam's global figure): a
+    // turn integrated wrongly once bends everything after it, which the steps barely show.
+    const auto global = mrslam::bench::relationError(estimate, reference, mrslam::bench::randomPairs(estimate.size(), 500, 1));
+    std::printf("excerpt: global error %.3f m, %.2f deg\n", global.trans_mean, global.rot_mean * 180 / M_PI);
+    EXPECT_LT(global.trans_mean, max_global);
+    if (gyro_delay > 0) {
+      std::printf("gyro %.2f s late: %ld scans waited for it, %ld it did not cover\n", gyro_delay,
+                  rec.scans_waited_for_gyro, rec.scans_gyro_did_not_cover);
+      EXPECT_GT(rec.scans_waited_for_gyro, expected_scans / 2) << "scans did not wait for the late gyro";
+      // Without the wait every interval would end past the newest sample (2 s of the bag's clock)
+      // and go without the gyro. A loaded CI host still leaves a few without it (one full run: 2
+      // of 122), where samples of this 1000-a-second stream were lost or a scan waited out
+      // imu_wait; those scans go without the gyro, as they should, and the map holds (above).
+      EXPECT_GE(rec.scans_gyro_did_not_cover, 0);
+      EXPECT_LT(rec.scans_gyro_did_not_cover, expected_scans / 10) << "a gyro late by less than imu_wait left scans without it";
+    }
 
-  // Zero copy inside the manager: every grid the merge nodelet received is an object the
-  // mapping nodelet published (same address), not a copy.
-  ASSERT_FALSE(rec.merge_received_addresses.empty()) << "the merge nodelet reported no map";
-  size_t same = 0;
-  for (const auto& address : rec.merge_received_addresses) same += rec.published_addresses.count(address);
-  std::printf("zero copy: %zu of %zu grids received by the merge nodelet have a published address\n", same,
-              rec.merge_received_addresses.size());
-  EXPECT_EQ(same, rec.merge_received_addresses.size());
+    // Zero copy inside the manager: every grid the merge nodelet received is an object the
+    // mapping nodelet published (same address), not a copy.
+    ASSERT_FALSE(rec.merge_received_addresses.empty()) << "the merge nodelet reported no map";
+    size_t same = 0;
+    for (const auto& address : rec.merge_received_addresses) same += rec.published_addresses.count(address);
+    std::printf("zero copy: %zu of %zu grids received by the merge nodelet have a published address\n", same,
+                rec.merge_received_addresses.size());
+    EXPECT_EQ(same, rec.merge_received_addresses.size());
+  }
+  checkFinishRun(rec, max_global);
 }
 
 }  // namespace

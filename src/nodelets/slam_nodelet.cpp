@@ -10,7 +10,11 @@
 // map_frame), trajectory (nav_msgs/Path, latched: the current estimate of every scan's pose,
 // which moves when a loop closes), map
 // (nav_msgs/OccupancyGrid, latched, at most map_publish_rate Hz and only when its content
-// changed) and map_metadata, diagnostics.
+// changed) and map_metadata, diagnostics. Service ~finish_run (std_srvs/Trigger): the run is
+// over (before saving the map, as Cartographer's finish_trajectory): the last submap is searched
+// for loop closures, every node is refined against all the others (GraphSlam::finish(),
+// pose_refinement.h) and the map and trajectory are published again. A scan after it goes on
+// from there, in a new submap.
 //
 // Inputs belong to their publisher: scans from a second node on the scan topic, and odometry
 // transforms from a second node, are refused and counted (input_owner_timeout).
@@ -37,6 +41,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/LaserScan.h>
+#include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -121,6 +126,24 @@ class SlamNodelet : public nodelet::Nodelet {
     scan_sub_ = nh.subscribe("scan", 20, &SlamNodelet::onRawScan, this);
     if (use_odometry_) startOdometryFilter(nh);  // without odometry, scans wait for no transform
     startTimers(nh, pnh, map_rate, period);
+    finish_srv_ = pnh.advertiseService("finish_run", &SlamNodelet::onFinishRun, this);
+  }
+
+  // Under the lock the scan callback takes: scans that arrive meanwhile wait (the refinement
+  // takes about a second per 1000 nodes of graph on one core).
+  bool onFinishRun(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!robot_) {
+      response.success = false;
+      response.message = "no scan has been used yet: nothing to finish";
+      return true;
+    }
+    robot_->finish();
+    const slam::FrontEndStats stats = robot_->stats();
+    response.success = true;
+    response.message = "run finished: " + std::to_string(stats.nodes_refined) + " of " + std::to_string(stats.nodes) +
+                       " nodes refined; the map and trajectory follow within 1/map_publish_rate s";
+    return true;
   }
 
   // Scans wait here until odom_frame -> base_frame is known at their stamps.
@@ -605,6 +628,7 @@ class SlamNodelet : public nodelet::Nodelet {
   ros::WallTimer map_timer_, gyro_wait_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;
+  ros::ServiceServer finish_srv_;
 };
 
 }  // namespace mrslam::nodelets
