@@ -3,7 +3,8 @@
 // that the filtered poses follow the log's reference poses (published in the bag for
 // evaluation only) within a stated bound. With gyro_delay > 0 (robot_front_end_lagging_gyro.test)
 // this node relays the bag's simulated gyro that many wall seconds late, as a loaded host
-// delivers it, and checks that the scans waited for it and the map still holds.
+// delivers it, and checks that the scans waited for it and the map still holds. After the bag it
+// ends the run (~finish_run) and checks that the map and trajectory come again, no worse.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
