@@ -772,7 +772,7 @@ TEST(GraphSlam, TheLastSubmapIsSearchedWhenTheRunEnds) {
 
 // When a run ends, each node's scan is aligned to all the other nodes' scans (pose_refinement.h):
 // the tracker saw only the scans before each one. Freiburg 101 every 5th scan, every phase (a
-// slow scanner: 2.5 m between scans, where each node keeps most of its own error).
+// slow scanner: 3.4 m between scans on average, where each node keeps most of its own error).
 TEST(GraphSlam, TheFinalRefinementTightensEveryPhaseOfASlowScanRate) {
   double gain = 0;  // m, summed over the phases
   for (int phase = 0; phase < 5; ++phase) {
