@@ -192,6 +192,7 @@ const Limit kLimits[] = {
     {"odometry_calibration_forgetting", 1.0, false},
     {"odometry_calibration_max_scale_error", 0.99, true},
     {"graph_weak_edge_factor", 1e6, false},
+    {"graph_refine_rounds", 100.0, true},
     {"graph_refine_max_correspondence", 100.0, false},
     {"graph_refine_min_goodness", 1.0, true},
 };
@@ -205,11 +206,10 @@ std::string number(double v) {
 // What is wrong with one numeric parameter's value: every number must be finite and >= 0, and
 // those of kLimits within their limits.
 std::string rangeProblem(const NamedParam& named) {
-  if (const auto* field = std::get_if<int*>(&named.field))
-    return **field < 0 ? named.name + " must be >= 0 (got " + std::to_string(**field) + ")" : "";
-  const auto* field = std::get_if<double*>(&named.field);
-  if (!field) return "";
-  const double v = **field;
+  double v = 0;
+  if (const auto* field = std::get_if<int*>(&named.field)) v = **field;
+  else if (const auto* real = std::get_if<double*>(&named.field)) v = **real;
+  else return "";  // not a number
   const Limit* limit = nullptr;
   for (const Limit& l : kLimits)
     if (named.name == l.name) limit = &l;
@@ -234,7 +234,6 @@ std::string robotSlamParamsProblem(const RobotSlamParams& p) {
   // ICP halves its pairing distance until it falls below the final one.
   if (!(p.matcher.max_correspondence >= p.matcher.min_correspondence))
     return "icp_min_correspondence must be at most icp_max_correspondence";
-  if (p.graph.refine_rounds > 100) return "graph_refine_rounds must be at most 100 (got " + std::to_string(p.graph.refine_rounds) + ")";
   if (!(p.graph.refine_max_correspondence >= p.matcher.min_correspondence))
     return "graph_refine_max_correspondence must be at least icp_min_correspondence";
   if (p.graph.solver != "ceres" && p.graph.solver != "mrpt")
