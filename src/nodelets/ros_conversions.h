@@ -9,6 +9,7 @@
 #include <tf2_ros/buffer.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <boost/array.hpp>
 #include <optional>
 #include <string>
@@ -66,15 +67,26 @@ inline geometry_msgs::TransformStamped transformMsg(const std::string& parent, c
   return t;
 }
 
-// The pose of `child` in `parent` at `stamp` (or the latest when stamp is zero).
-inline std::optional<Pose2D> lookupPose2D(const tf2_ros::Buffer& buffer, const std::string& parent,
-                                          const std::string& child, const ros::Time& stamp, std::string* error) {
+// The transform of `child` in `parent` at `stamp` (or the latest when stamp is zero).
+inline std::optional<geometry_msgs::Transform> lookupTransform(const tf2_ros::Buffer& buffer, const std::string& parent,
+                                                               const std::string& child, const ros::Time& stamp,
+                                                               std::string* error) {
   try {
-    return poseFromTransform(buffer.lookupTransform(parent, child, stamp).transform);
+    return buffer.lookupTransform(parent, child, stamp).transform;
   } catch (const tf2::TransformException& e) {
     if (error) *error = e.what();
     return std::nullopt;
   }
+}
+
+inline Eigen::Quaterniond quaternionOf(const geometry_msgs::Quaternion& q) { return {q.w, q.x, q.y, q.z}; }
+
+// The pose of `child` in `parent` at `stamp` (or the latest when stamp is zero).
+inline std::optional<Pose2D> lookupPose2D(const tf2_ros::Buffer& buffer, const std::string& parent,
+                                          const std::string& child, const ros::Time& stamp, std::string* error) {
+  const auto transform = lookupTransform(buffer, parent, child, stamp, error);
+  if (!transform) return std::nullopt;
+  return poseFromTransform(*transform);
 }
 
 // Why a LaserScan message cannot be used (empty when it can): on top of the core's checks,

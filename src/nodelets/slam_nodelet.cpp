@@ -16,6 +16,10 @@
 // pose_refinement.h) and the map and trajectory are published again. A scan after it goes on
 // from there, in a new submap.
 //
+// Mountings come from tf's full rotation (slam/sensor_mount.h): a laser upside down has its
+// scans read as an upright one would list them, one tilted beyond kMaxLaserTiltDeg is refused,
+// and a gyro's angular velocity is turned into base_frame, whichever way up it sits.
+//
 // Inputs belong to their publisher: scans from a second node on the scan topic, and odometry
 // transforms from a second node, are refused and counted (input_owner_timeout).
 //
@@ -57,6 +61,7 @@
 #include "mrslam/scan_stamp_gate.h"
 #include "mrslam/slam/front_end.h"
 #include "mrslam/slam/gyro_buffer.h"
+#include "mrslam/slam/sensor_mount.h"
 #include "mrslam/slam/simulated_gyro.h"
 #include "guarded_tf_listener.h"
 #include "ros_conversions.h"
@@ -187,7 +192,15 @@ class SlamNodelet : public nodelet::Nodelet {
     {
       std::lock_guard<std::mutex> lock(input_mutex_);
       // Kept in time order until a scan integrates the interval it belongs to.
-      if (!gyro_.add(msg->header.stamp.toSec(), msg->angular_velocity.z)) {
+      std::string error;
+      const std::optional<double> yaw_rate = yawRateOf(*msg, &error);
+      if (!yaw_rate) {
+        NODELET_WARN_THROTTLE(5.0, "IMU sample ignored: no tf %s -> %s yet (%s)", base_frame_.c_str(),
+                              msg->header.frame_id.c_str(), error.c_str());
+        ++imu_rejected_;
+        return;
+      }
+      if (!gyro_.add(msg->header.stamp.toSec(), *yaw_rate)) {
         NODELET_WARN_THROTTLE(5.0, "IMU yaw rate or stamp is NaN/inf: sample ignored");
         ++imu_rejected_;
         return;
@@ -195,6 +208,22 @@ class SlamNodelet : public nodelet::Nodelet {
       gyro_heard_ = ros::WallTime::now().toSec();
     }
     drainScans();
+  }
+
+  // The robot's yaw rate from an IMU sample: its angular velocity turned from the IMU's frame
+  // into base_frame through tf (sensor_mount.h); a sample without a frame, or in base_frame, is
+  // taken as it is. Nothing while tf does not know the IMU's frame. The mounting is looked up
+  // once per frame: an IMU is bolted on.
+  std::optional<double> yawRateOf(const sensor_msgs::Imu& msg, std::string* error) {  // input_mutex_ held
+    const std::string frame = bareFrame(msg.header.frame_id);
+    const Eigen::Vector3d rate(msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z);
+    if (frame.empty() || frame == bareFrame(base_frame_)) return rate.z();
+    if (!imu_mount_ || imu_mount_->first != frame) {
+      const auto imu = lookupTransform(*tf_buffer_, base_frame_, frame, ros::Time(0), error);
+      if (!imu) return std::nullopt;
+      imu_mount_.emplace(frame, quaternionOf(imu->rotation));
+    }
+    return slam::baseYawRate(imu_mount_->second, rate);
   }
 
   // The gyro's yaw change over [t0, t1), when its samples cover the interval; a gyro that is
@@ -357,7 +386,8 @@ class SlamNodelet : public nodelet::Nodelet {
     if (stamp_gate_->last() && params_.use_imu) integrateGyro(*stamp_gate_->last(), t);
     stamp_gate_->used(t);
     scan_owner_.take(publisher, wall);  // last, so that a scan refused above never claims the topic
-    const slam::ScanStep step = robot_->processScan(scanFromMsg(*msg));
+    const slam::ScanStep step =
+        robot_->processScan(laser_upside_down_ ? slam::uprightScan(scanFromMsg(*msg)) : scanFromMsg(*msg));
     if (!step.used) {
       ++rejected_;
       last_problem_ = step.reason;
@@ -374,16 +404,25 @@ class SlamNodelet : public nodelet::Nodelet {
   // do (the laser is bolted on); a scan taken in base_frame itself needs none, so a bag with
   // nothing but scans runs with base_frame set to the laser's frame.
   bool startFrontEnd(const std::string& laser_frame) {  // mutex_ held
-    std::optional<Pose2D> laser = Pose2D{};
-    std::string error;
-    if (bareFrame(laser_frame) != bareFrame(base_frame_))
-      laser = lookupPose2D(*tf_buffer_, base_frame_, bareFrame(laser_frame), ros::Time(0), &error);
-    if (!laser) {
-      NODELET_WARN_THROTTLE(5.0, "waiting for tf %s -> %s: %s", base_frame_.c_str(), laser_frame.c_str(), error.c_str());
-      last_problem_ = "no laser transform: " + error;
-      return false;
+    slam::LaserMount mount;  // a scan taken in base_frame itself: upright at its origin
+    if (bareFrame(laser_frame) != bareFrame(base_frame_)) {
+      std::string error;
+      const auto laser = lookupTransform(*tf_buffer_, base_frame_, bareFrame(laser_frame), ros::Time(0), &error);
+      if (!laser) {
+        NODELET_WARN_THROTTLE(5.0, "waiting for tf %s -> %s: %s", base_frame_.c_str(), laser_frame.c_str(), error.c_str());
+        last_problem_ = "no laser transform: " + error;
+        return false;
+      }
+      const auto mounted = slam::laserMount(quaternionOf(laser->rotation), laser->translation.x, laser->translation.y, &error);
+      if (!mounted) {
+        last_problem_ = "laser frame " + laser_frame + " refused: " + error;
+        NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
+        return false;
+      }
+      mount = *mounted;
     }
-    robot_ = slam::makeFrontEnd(params_, *laser);
+    laser_upside_down_ = mount.upside_down;
+    robot_ = slam::makeFrontEnd(params_, mount.pose);
     robot_->setOdometryAvailable(use_odometry_);
     return true;
   }
@@ -605,6 +644,8 @@ class SlamNodelet : public nodelet::Nodelet {
   double max_pose_lag_ = 0;
   slam::GyroBuffer gyro_;  // input_mutex_
   double gyro_heard_ = 0;  // wall s of the last gyro sample; input_mutex_
+  std::optional<std::pair<std::string, Eigen::Quaterniond>> imu_mount_;  // the IMU's frame in base_frame; input_mutex_
+  bool laser_upside_down_ = false;  // its scans are mirrored into an upright laser's (mutex_)
   uint64_t published_version_ = ~0ull;
   size_t published_poses_ = 0;
   size_t odometry_messages_ = 0, bad_odometry_ = 0, imu_rejected_ = 0;  // input_mutex_

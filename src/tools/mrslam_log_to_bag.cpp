@@ -2,7 +2,7 @@
 //
 //   mrslam_log_to_bag LOG OUT.bag [--robot NAME:START:END ...] [--start-time T]
 //                     [--simulated-imu [--imu-seed N] [--imu-rate HZ]] [--max-scans N]
-//                     [--scan-period S] [--allow-partial]
+//                     [--scan-period S] [--allow-partial] [--turned-sensors]
 //
 // Each --robot takes the scans of the log between START and END seconds after its first scan
 // (END 0: to the end) and plays them as robot NAME, all windows shifted to start together at
@@ -19,6 +19,11 @@
 // (geometry_msgs/PoseStamped in the log's own world frame, named "reference"; the same frame
 // for all robots of one log, which is what the multi-robot ground truth is made from). They
 // are for evaluation only; nothing in the stack subscribes to them.
+// --turned-sensors writes what the same sensors report when mounted otherwise, to prove that
+// the stack reads mountings from tf (sensor_mount.h): the laser upside down (rolled 180 degrees
+// about its x axis: its beams sweep the other way, so the ranges come in reverse order), and the
+// gyro on its side in frame NAME/imu (its x axis pointing up: the yaw rate is its
+// angular_velocity.x), each with its tf from NAME/base_link.
 //
 // Refusals, each one line and exit 2, nothing left behind: options out of range (--start-time
 // and every stamp must fit ROS time, --imu-rate 1..1000 Hz), a window with no scan, a bag that
@@ -33,6 +38,8 @@
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -59,7 +66,7 @@ struct Window {
 constexpr const char* kUsage =
     "usage: mrslam_log_to_bag LOG OUT.bag [--robot NAME:START:END ...] [--start-time T]\n"
     "                         [--simulated-imu [--imu-seed N] [--imu-rate HZ]] [--max-scans N]\n"
-    "                         [--scan-period S] [--allow-partial]\n";
+    "                         [--scan-period S] [--allow-partial] [--turned-sensors]\n";
 constexpr int kBadInput = 2, kPartialInput = 3;
 constexpr double kMaxRosTime = 4294967295.0;  // ros::Time holds unsigned 32-bit seconds
 constexpr double kMaxGyroGap = 60.0;           // s: no simulated gyro across a longer gap
@@ -86,7 +93,7 @@ struct Options {
   std::string log_path, bag_path;
   std::vector<Window> windows;
   double start_time = 100.0, imu_rate = 100.0, scan_period = 0;
-  bool simulated_imu = false, allow_partial = false;
+  bool simulated_imu = false, allow_partial = false, turned_sensors = false;
   unsigned imu_seed = 1;
   size_t max_scans = 0;
 };
@@ -121,6 +128,8 @@ Options parseOptions(int argc, char** argv) {
       o.scan_period = number(a, next());
     } else if (a == "--allow-partial") {
       o.allow_partial = true;
+    } else if (a == "--turned-sensors") {
+      o.turned_sensors = true;
     } else if (!a.empty() && a[0] == '-') {
       throw std::invalid_argument("unknown option " + a);
     } else if (o.log_path.empty()) {
@@ -161,18 +170,47 @@ std::vector<Stamped> windowScans(const slam::RobotLog& log, const Window& win, c
   return out;
 }
 
+// --turned-sensors: the laser rolled 180 degrees about its x axis, the gyro's x axis along the
+// robot's z axis.
+const Eigen::Quaterniond kLaserRoll(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()));
+const Eigen::Quaterniond kGyroOnItsSide(Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitY()));
+
+geometry_msgs::TransformStamped mountMsg(const std::string& parent, const std::string& child, const ros::Time& stamp,
+                                         double x, double y, const Eigen::Quaterniond& rotation) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform.translation.x = x;
+  t.transform.translation.y = y;
+  t.transform.rotation.w = rotation.w();
+  t.transform.rotation.x = rotation.x();
+  t.transform.rotation.y = rotation.y();
+  t.transform.rotation.z = rotation.z();
+  return t;
+}
+
 void writeScan(rosbag::Bag& bag, const std::string& ns, const slam::RobotLog& log, size_t k, const Pose2D& odometry,
-               const ros::Time& stamp) {
+               const ros::Time& stamp, bool turned) {
   const slam::LogRecord& r = log.records[k];
   sensor_msgs::LaserScan scan;
   scan.header.stamp = stamp;
   scan.header.frame_id = ns + "/laser";
-  scan.angle_min = static_cast<float>(r.scan.angle_min);
+  const double last_angle = r.scan.angle_min + r.scan.angle_increment * (r.scan.ranges.size() - 1);
   scan.angle_increment = static_cast<float>(r.scan.angle_increment);
-  scan.angle_max = static_cast<float>(r.scan.angle_min + r.scan.angle_increment * (r.scan.ranges.size() - 1));
   scan.range_min = static_cast<float>(r.scan.range_min);
   scan.range_max = static_cast<float>(r.scan.range_max);
   scan.ranges = r.scan.ranges;
+  if (turned) {
+    // Upside down, the beam the log has at angle a is at -a in the laser's frame: the same
+    // sweep direction from -last to -first, the ranges in reverse order.
+    scan.angle_min = static_cast<float>(-last_angle);
+    scan.angle_max = static_cast<float>(-r.scan.angle_min);
+    std::reverse(scan.ranges.begin(), scan.ranges.end());
+  } else {
+    scan.angle_min = static_cast<float>(r.scan.angle_min);
+    scan.angle_max = static_cast<float>(last_angle);
+  }
   // Odometry and tf first: a consumer has the motion up to the scan when the scan arrives.
   tf2_msgs::TFMessage tf;
   if (log.has_odometry) {
@@ -186,7 +224,14 @@ void writeScan(rosbag::Bag& bag, const std::string& ns, const slam::RobotLog& lo
     bag.write("/" + ns + "/odom", stamp, odom);
     tf.transforms.push_back(transformMsg(ns + "/odom", ns + "/base_link", stamp, odometry));
   }
-  tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
+  if (turned) {
+    const Eigen::Quaterniond heading(Eigen::AngleAxisd(log.laser_in_base.yaw, Eigen::Vector3d::UnitZ()));
+    tf.transforms.push_back(mountMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base.x, log.laser_in_base.y,
+                                     heading * kLaserRoll));
+    tf.transforms.push_back(mountMsg(ns + "/base_link", ns + "/imu", stamp, 0, 0, kGyroOnItsSide));
+  } else {
+    tf.transforms.push_back(transformMsg(ns + "/base_link", ns + "/laser", stamp, log.laser_in_base));
+  }
   bag.write("/tf", stamp, tf);
   bag.write("/" + ns + "/scan", stamp, scan);
   if (r.has_reference) {
@@ -202,18 +247,23 @@ void writeScan(rosbag::Bag& bag, const std::string& ns, const slam::RobotLog& lo
 
 // The SIMULATED gyro's samples between two scans (none across a gap longer than a minute).
 size_t writeGyro(rosbag::Bag& bag, const std::string& ns, slam::SimulatedGyro& gyro, const slam::GyroNoiseModel& model,
-                 double t0, double t1, double true_change) {
+                 double t0, double t1, double true_change, bool turned) {
   if (t1 - t0 > kMaxGyroGap) return 0;
   const double rate_variance = std::pow(model.noise_density * M_PI / 180.0, 2) * model.rate_hz;
   size_t n = 0;
   for (const slam::GyroSample& s : gyro.samples(t0, t1, true_change)) {
     sensor_msgs::Imu imu;
     imu.header.stamp = ros::Time(s.stamp);
-    imu.header.frame_id = ns + "/base_link";
+    imu.header.frame_id = ns + (turned ? "/imu" : "/base_link");
     imu.orientation_covariance[0] = -1;          // no orientation
     imu.linear_acceleration_covariance[0] = -1;  // no accelerometer
-    imu.angular_velocity.z = s.rate;
-    imu.angular_velocity_covariance[8] = rate_variance;
+    // The robot's z axis in the gyro's frame: the turn, and its noise, lie along it.
+    const Eigen::Vector3d axis = (turned ? kGyroOnItsSide.conjugate() : Eigen::Quaterniond::Identity()) * Eigen::Vector3d::UnitZ();
+    imu.angular_velocity.x = axis.x() * s.rate;
+    imu.angular_velocity.y = axis.y() * s.rate;
+    imu.angular_velocity.z = axis.z() * s.rate;
+    for (int row = 0; row < 3; ++row)
+      for (int col = 0; col < 3; ++col) imu.angular_velocity_covariance[3 * row + col] = rate_variance * axis(row) * axis(col);
     bag.write("/" + ns + "/imu_simulated", imu.header.stamp, imu);
     ++n;
   }
@@ -279,9 +329,9 @@ int main(int argc, char** argv) {
         const size_t k = scans[w][i].index;
         if (o.simulated_imu && i > 0) {
           const double change = Pose2D::normalizeAngle(log.records[k].reference.yaw - log.records[scans[w][i - 1].index].reference.yaw);
-          writeGyro(*bag, ns, gyro, model, scans[w][i - 1].stamp, scans[w][i].stamp, change);
+          writeGyro(*bag, ns, gyro, model, scans[w][i - 1].stamp, scans[w][i].stamp, change, o.turned_sensors);
         }
-        writeScan(*bag, ns, log, k, odometry[k], ros::Time(scans[w][i].stamp));
+        writeScan(*bag, ns, log, k, odometry[k], ros::Time(scans[w][i].stamp), o.turned_sensors);
       }
       std::cout << ns << ": " << scans[w].size() << " scans from " << o.windows[w].start << " s to "
                 << (o.windows[w].end > 0 ? std::to_string(o.windows[w].end) + " s" : std::string("the end")) << " of "
