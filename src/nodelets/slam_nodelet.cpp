@@ -415,12 +415,13 @@ class SlamNodelet : public nodelet::Nodelet {
       }
       const auto mounted = slam::laserMount(quaternionOf(laser->rotation), laser->translation.x, laser->translation.y, &error);
       if (!mounted) {
-        last_problem_ = "laser frame " + laser_frame + " refused: " + error;
+        last_problem_ = mount_problem_ = "laser frame " + laser_frame + " refused: " + error;
         NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
         return false;
       }
       mount = *mounted;
     }
+    mount_problem_.clear();
     laser_upside_down_ = mount.upside_down;
     robot_ = slam::makeFrontEnd(params_, mount.pose);
     robot_->setOdometryAvailable(use_odometry_);
@@ -536,6 +537,7 @@ class SlamNodelet : public nodelet::Nodelet {
     const slam::FrontEndStats s = robot_ ? robot_->stats() : slam::FrontEndStats{};
     const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
     if (!params_problem_.empty()) status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, params_problem_);
+    else if (!robot_ && !mount_problem_.empty()) status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, mount_problem_);
     else if (!robot_) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for scans and tf: " + last_problem_);
     else if (!use_odometry_ && !tf_refusals.holder.empty())
       // Both would be parents of base_frame: tf takes whichever came last.
@@ -646,6 +648,7 @@ class SlamNodelet : public nodelet::Nodelet {
   double gyro_heard_ = 0;  // wall s of the last gyro sample; input_mutex_
   std::optional<std::pair<std::string, Eigen::Quaterniond>> imu_mount_;  // the IMU's frame in base_frame; input_mutex_
   bool laser_upside_down_ = false;  // its scans are mirrored into an upright laser's (mutex_)
+  std::string mount_problem_;       // why the laser's mounting was refused (mutex_)
   uint64_t published_version_ = ~0ull;
   size_t published_poses_ = 0;
   size_t odometry_messages_ = 0, bad_odometry_ = 0, imu_rejected_ = 0;  // input_mutex_
