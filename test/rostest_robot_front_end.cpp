@@ -3,7 +3,9 @@
 // that the filtered poses follow the log's reference poses (published in the bag for
 // evaluation only) within a stated bound. With gyro_delay > 0 (robot_front_end_lagging_gyro.test)
 // this node relays the bag's simulated gyro that many wall seconds late, as a loaded host
-// delivers it, and checks that the scans waited for it and the map still holds. After the bag it
+// delivers it, and checks that the scans waited for it and the map still holds; with
+// gyro_without_rate (robot_front_end_rateless_imu.test) it relays the samples as an IMU without
+// angular velocity sends them and checks they are set aside. After the bag it
 // ends the run (~finish_run) and checks that the map and trajectory come again, no worse.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -40,6 +42,7 @@ struct Recorder {
   nav_msgs::Path::ConstPtr path;
   std::set<std::string> published_addresses, merge_received_addresses;
   long scans_waited_for_gyro = -1, scans_gyro_did_not_cover = -1;  // the SLAM nodelet's last report
+  long imu_samples_without_rate = -1;
   void onDiagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex);
     for (const auto& status : m->status)
@@ -52,6 +55,7 @@ struct Recorder {
         if (kv.key == "own map address" && kv.value != "0") merge_received_addresses.insert(kv.value);
         if (kv.key == "scans that waited for the gyro") scans_waited_for_gyro = std::stol(kv.value);
         if (kv.key == "scans the gyro did not cover") scans_gyro_did_not_cover = std::stol(kv.value);
+        if (kv.key == "imu samples without angular velocity") imu_samples_without_rate = std::stol(kv.value);
       }
   }
   void onPose(const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
@@ -118,19 +122,29 @@ void checkFinishRun(Recorder& rec, double max_global) {
   EXPECT_LT(after, before + 0.02) << "finishing the run made the map worse";
 }
 
-// Republishes gyro samples `delay` wall seconds after they arrived.
+// Republishes gyro samples `delay` wall seconds after they arrived; `without_rate`: as an IMU
+// that measures no angular velocity sends them (zeros, angular_velocity_covariance[0] = -1, the
+// sensor_msgs/Imu convention for "no estimate").
 class LateGyro {
  public:
-  LateGyro(ros::NodeHandle& nh, double delay)
+  LateGyro(ros::NodeHandle& nh, double delay, bool without_rate)
       : delay_(delay),
+        without_rate_(without_rate),
         pub_(nh.advertise<sensor_msgs::Imu>("/robot1/imu_late", 2000)),
         sub_(nh.subscribe("/robot1/imu_simulated", 2000, &LateGyro::onImu, this)),
         timer_(nh.createWallTimer(ros::WallDuration(0.002), &LateGyro::release, this)) {}
 
  private:
   void onImu(const sensor_msgs::Imu::ConstPtr& m) {
+    sensor_msgs::Imu::ConstPtr sample = m;
+    if (without_rate_) {
+      auto rateless = boost::make_shared<sensor_msgs::Imu>(*m);
+      rateless->angular_velocity = geometry_msgs::Vector3();
+      rateless->angular_velocity_covariance = {-1, 0, 0, 0, 0, 0, 0, 0, 0};
+      sample = rateless;
+    }
     std::lock_guard<std::mutex> lock(mutex_);
-    held_.push_back({ros::WallTime::now() + ros::WallDuration(delay_), m});
+    held_.push_back({ros::WallTime::now() + ros::WallDuration(delay_), sample});
   }
   void release(const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -140,6 +154,7 @@ class LateGyro {
     }
   }
   double delay_;
+  bool without_rate_;
   std::mutex mutex_;
   std::deque<std::pair<ros::WallTime, sensor_msgs::Imu::ConstPtr>> held_;
   ros::Publisher pub_;
@@ -156,8 +171,10 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
   pnh.param("max_step_rotation_error_deg", max_rot_deg, max_rot_deg);
   pnh.param("max_global_error", max_global, max_global);
   pnh.param("gyro_delay", gyro_delay, gyro_delay);
+  bool gyro_without_rate = false;
+  pnh.param("gyro_without_rate", gyro_without_rate, gyro_without_rate);
   std::unique_ptr<LateGyro> late_gyro;
-  if (gyro_delay > 0) late_gyro = std::make_unique<LateGyro>(nh, gyro_delay);
+  if (gyro_delay > 0 || gyro_without_rate) late_gyro = std::make_unique<LateGyro>(nh, gyro_delay, gyro_without_rate);
   Recorder rec;
   auto pose_sub = nh.subscribe("/robot1/pose", 1000, &Recorder::onPose, &rec);
   auto ref_sub = nh.subscribe("/robot1/reference_pose", 1000, &Recorder::onReference, &rec);
@@ -207,7 +224,12 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
     const auto global = mrslam::bench::relationError(estimate, reference, mrslam::bench::randomPairs(estimate.size(), 500, 1));
     std::printf("excerpt: global error %.3f m, %.2f deg\n", global.trans_mean, global.rot_mean * 180 / M_PI);
     EXPECT_LT(global.trans_mean, max_global);
-    if (gyro_delay > 0) {
+    if (gyro_without_rate) {
+      // Read as a yaw rate, those zeros would say the robot never turns.
+      std::printf("IMU without angular velocity: %ld samples set aside\n", rec.imu_samples_without_rate);
+      EXPECT_GT(rec.imu_samples_without_rate, 1000) << "the IMU's samples without angular velocity were not set aside";
+    }
+    if (gyro_delay > 0 && !gyro_without_rate) {
       std::printf("gyro %.2f s late: %ld scans waited for it, %ld it did not cover\n", gyro_delay,
                   rec.scans_waited_for_gyro, rec.scans_gyro_did_not_cover);
       EXPECT_GT(rec.scans_waited_for_gyro, expected_scans / 2) << "scans did not wait for the late gyro";

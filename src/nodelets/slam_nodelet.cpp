@@ -192,6 +192,14 @@ class SlamNodelet : public nodelet::Nodelet {
     {
       std::lock_guard<std::mutex> lock(input_mutex_);
       // Kept in time order until a scan integrates the interval it belongs to.
+      // sensor_msgs/Imu: element 0 of a covariance at -1 says the IMU gives no such estimate.
+      // Zeros read as a yaw rate would say the robot never turns.
+      if (msg->angular_velocity_covariance[0] == -1) {
+        NODELET_ERROR_THROTTLE(5.0, "IMU samples on %s carry no angular velocity (angular_velocity_covariance[0] "
+                               "is -1): set aside, the SLAM runs without a gyro", imu_sub_.getTopic().c_str());
+        ++imu_without_rate_;
+        return;
+      }
       std::string error;
       const std::optional<double> yaw_rate = yawRateOf(*msg, &error);
       if (!yaw_rate) {
@@ -578,6 +586,7 @@ class SlamNodelet : public nodelet::Nodelet {
     {
       std::lock_guard<std::mutex> input_lock(input_mutex_);
       status.add("imu samples rejected", imu_rejected_);
+      status.add("imu samples without angular velocity", imu_without_rate_);
       status.add("scans that waited for the gyro", scans_waited_for_gyro_.load());
       status.add("scans the gyro did not cover", scans_without_gyro_);
       status.add("odometry messages", odometry_messages_);
@@ -652,6 +661,7 @@ class SlamNodelet : public nodelet::Nodelet {
   uint64_t published_version_ = ~0ull;
   size_t published_poses_ = 0;
   size_t odometry_messages_ = 0, bad_odometry_ = 0, imu_rejected_ = 0;  // input_mutex_
+  size_t imu_without_rate_ = 0;  // samples marked as measuring no angular velocity; input_mutex_
   std::atomic<size_t> scans_waited_for_gyro_{0};
   size_t scans_without_gyro_ = 0;     // input_mutex_
   size_t rejected_ = 0, resets_ = 0, maps_published_ = 0;
