@@ -42,7 +42,7 @@ struct Recorder {
   nav_msgs::Path::ConstPtr path;
   std::set<std::string> published_addresses, merge_received_addresses;
   long scans_waited_for_gyro = -1, scans_gyro_did_not_cover = -1;  // the SLAM nodelet's last report
-  long imu_samples_without_rate = -1;
+  long imu_samples_without_rate = -1, scans_gyro_set_aside = -1;
   void onDiagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex);
     for (const auto& status : m->status)
@@ -56,6 +56,7 @@ struct Recorder {
         if (kv.key == "scans that waited for the gyro") scans_waited_for_gyro = std::stol(kv.value);
         if (kv.key == "scans the gyro did not cover") scans_gyro_did_not_cover = std::stol(kv.value);
         if (kv.key == "imu samples without angular velocity") imu_samples_without_rate = std::stol(kv.value);
+        if (kv.key == "scans whose gyro turn was set aside") scans_gyro_set_aside = std::stol(kv.value);
       }
   }
   void onPose(const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
@@ -124,12 +125,14 @@ void checkFinishRun(Recorder& rec, double max_global) {
 
 // Republishes gyro samples `delay` wall seconds after they arrived; `without_rate`: as an IMU
 // that measures no angular velocity sends them (zeros, angular_velocity_covariance[0] = -1, the
-// sensor_msgs/Imu convention for "no estimate").
+// sensor_msgs/Imu convention for "no estimate"); `scale`: times this (-1: a gyro whose sign is
+// wrong, 57.3: one that reports degrees per second).
 class LateGyro {
  public:
-  LateGyro(ros::NodeHandle& nh, double delay, bool without_rate)
+  LateGyro(ros::NodeHandle& nh, double delay, bool without_rate, double scale)
       : delay_(delay),
         without_rate_(without_rate),
+        scale_(scale),
         pub_(nh.advertise<sensor_msgs::Imu>("/robot1/imu_late", 2000)),
         sub_(nh.subscribe("/robot1/imu_simulated", 2000, &LateGyro::onImu, this)),
         timer_(nh.createWallTimer(ros::WallDuration(0.002), &LateGyro::release, this)) {}
@@ -137,8 +140,15 @@ class LateGyro {
  private:
   void onImu(const sensor_msgs::Imu::ConstPtr& m) {
     sensor_msgs::Imu::ConstPtr sample = m;
+    if (scale_ != 1.0) {
+      auto scaled = boost::make_shared<sensor_msgs::Imu>(*m);
+      scaled->angular_velocity.x *= scale_;
+      scaled->angular_velocity.y *= scale_;
+      scaled->angular_velocity.z *= scale_;
+      sample = scaled;
+    }
     if (without_rate_) {
-      auto rateless = boost::make_shared<sensor_msgs::Imu>(*m);
+      auto rateless = boost::make_shared<sensor_msgs::Imu>(*sample);
       rateless->angular_velocity = geometry_msgs::Vector3();
       rateless->angular_velocity_covariance = {-1, 0, 0, 0, 0, 0, 0, 0, 0};
       sample = rateless;
@@ -155,6 +165,7 @@ class LateGyro {
   }
   double delay_;
   bool without_rate_;
+  double scale_;
   std::mutex mutex_;
   std::deque<std::pair<ros::WallTime, sensor_msgs::Imu::ConstPtr>> held_;
   ros::Publisher pub_;
@@ -173,8 +184,11 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
   pnh.param("gyro_delay", gyro_delay, gyro_delay);
   bool gyro_without_rate = false;
   pnh.param("gyro_without_rate", gyro_without_rate, gyro_without_rate);
+  double gyro_scale = 1.0;
+  pnh.param("gyro_scale", gyro_scale, gyro_scale);
   std::unique_ptr<LateGyro> late_gyro;
-  if (gyro_delay > 0 || gyro_without_rate) late_gyro = std::make_unique<LateGyro>(nh, gyro_delay, gyro_without_rate);
+  if (gyro_delay > 0 || gyro_without_rate || gyro_scale != 1.0)
+    late_gyro = std::make_unique<LateGyro>(nh, gyro_delay, gyro_without_rate, gyro_scale);
   Recorder rec;
   auto pose_sub = nh.subscribe("/robot1/pose", 1000, &Recorder::onPose, &rec);
   auto ref_sub = nh.subscribe("/robot1/reference_pose", 1000, &Recorder::onReference, &rec);
@@ -228,6 +242,12 @@ TEST(RobotFrontEnd, PublishesMapTfAndTracksTheReference) {
       // Read as a yaw rate, those zeros would say the robot never turns.
       std::printf("IMU without angular velocity: %ld samples set aside\n", rec.imu_samples_without_rate);
       EXPECT_GT(rec.imu_samples_without_rate, 1000) << "the IMU's samples without angular velocity were not set aside";
+    }
+    if (gyro_scale != 1.0) {
+      std::printf("gyro times %.1f: its turns set aside on %ld scans\n", gyro_scale, rec.scans_gyro_set_aside);
+      EXPECT_GT(rec.scans_gyro_set_aside, expected_scans / 2) << "the wrong gyro was not set aside";
+    } else if (!gyro_without_rate) {
+      EXPECT_EQ(rec.scans_gyro_set_aside, 0) << "a working gyro was set aside";
     }
     if (gyro_delay > 0 && !gyro_without_rate) {
       std::printf("gyro %.2f s late: %ld scans waited for it, %ld it did not cover\n", gyro_delay,

@@ -403,6 +403,7 @@ class SlamNodelet : public nodelet::Nodelet {
       return;
     }
     if (step.odometry_jump) NODELET_WARN_THROTTLE(5.0, "odometry jumped between two scans: the scan says the robot did not move");
+    if (!step.gyro_problem.empty()) NODELET_ERROR("%s", step.gyro_problem.c_str());
     stamps_.push_back(msg->header.stamp);
     publishPose(msg->header.stamp);
     recordPoseLag(msg.get());
@@ -546,6 +547,7 @@ class SlamNodelet : public nodelet::Nodelet {
     const GuardedTransformListener::Refusals tf_refusals = tf_listener_->refusals();
     if (!params_problem_.empty()) status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, params_problem_);
     else if (!robot_ && !mount_problem_.empty()) status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, mount_problem_);
+    else if (!s.gyro_problem.empty()) status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, s.gyro_problem);
     else if (!robot_) status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for scans and tf: " + last_problem_);
     else if (!use_odometry_ && !tf_refusals.holder.empty())
       // Both would be parents of base_frame: tf takes whichever came last.
@@ -587,6 +589,7 @@ class SlamNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> input_lock(input_mutex_);
       status.add("imu samples rejected", imu_rejected_);
       status.add("imu samples without angular velocity", imu_without_rate_);
+      status.add("scans whose gyro turn was set aside", s.gyro_set_aside);
       status.add("scans that waited for the gyro", scans_waited_for_gyro_.load());
       status.add("scans the gyro did not cover", scans_without_gyro_);
       status.add("odometry messages", odometry_messages_);

@@ -195,6 +195,8 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   if (s.optimization_failures)
     std::cerr << "mrslam_slam_log: WARNING: " << s.optimization_failures << " pose-graph optimisation(s) failed: "
               << s.last_problem << "\n";
+  if (!s.gyro_problem.empty())
+    std::cerr << "mrslam_slam_log: WARNING: " << s.gyro_problem << " (" << s.gyro_set_aside << " scans)\n";
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "mrslam/grid.h"
+#include "mrslam/slam/gyro_check.h"
 #include "mrslam/slam/ekf2d.h"
 #include "mrslam/slam/grid_mapper.h"
 #include "mrslam/slam/laser_scan.h"
@@ -167,6 +168,7 @@ struct RobotSlamParams {
   bool loop_closure = true;       // false: the paper's EKF front end alone
   bool use_scan_matching = true;
   bool use_imu = true;            // gyro updates are used when they arrive
+  GyroCheckParams gyro_check;     // a gyro whose turns disagree with the odometry's is set aside
   double map_update_distance = 0.0;  // m moved before a scan is inserted into the grid (0: every scan)
   double map_update_angle = 0.0;     // rad turned before a scan is inserted into the grid
   // An odometry increment longer than max_odometry_jump (+ max_odometry_speed x the time
@@ -206,6 +208,8 @@ struct ScanStep {
   bool matched = false;         // scan matching accepted by the EKF
   bool gated = false;           // scan match rejected by the Mahalanobis gate
   bool imu_used = false;
+  bool gyro_set_aside = false;  // a gyro turn came and was not used: the gyro is refused (gyro_check.h)
+  std::string gyro_problem;     // on the step the gyro was refused: why
   bool seeded = false;          // a correlative search seeded ICP
   bool odometry_doubted = false;  // the increment was long enough to be a jump
   bool odometry_jump = false;     // ...and the scan agreed better with no motion
@@ -238,6 +242,8 @@ struct FrontEndStats {
   size_t optimizations = 0, optimization_failures = 0;
   double tracking_ms = 0, loop_search_ms = 0, optimization_ms = 0;  // where the time went
   std::string last_problem;
+  size_t gyro_set_aside = 0;  // steps whose gyro turn was not used (the gyro refused)
+  std::string gyro_problem;   // why the gyro was refused (empty: it was not)
 
   // Steps on which the scans overruled the odometry's motion: it slipped, jumped or missed a turn.
   size_t odometryOverruled() const { return odometry_slips + odometry_jumps + odometry_missed_turns; }

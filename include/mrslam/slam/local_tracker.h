@@ -91,6 +91,7 @@ class LocalTracker {
   Pose2D odometry_;  // accumulated since the last scan
   double gyro_yaw_ = 0, gyro_var_ = 0;
   bool have_gyro_ = false;
+  GyroCheck gyro_check_;
   bool time_usable_ = true;
   bool odometry_available_ = true;
   Pose2D last_motion_;  // the tracked motion of the last scan: the prediction without odometry

@@ -30,6 +30,8 @@ void countStep(const ScanStep& step, FrontEndStats& stats) {
   stats.odometry_missed_turns += step.odometry_missed_turn;
   stats.seeds_alone += step.seed_alone;
   stats.searches_given_up += step.searches_given_up;
+  stats.gyro_set_aside += step.gyro_set_aside;
+  if (!step.gyro_problem.empty()) stats.gyro_problem = step.gyro_problem;
 }
 
 EkfFrontEnd::EkfFrontEnd(const RobotSlamParams& params, const Pose2D& laser_in_base)

@@ -12,7 +12,8 @@ LocalTracker::LocalTracker(const RobotSlamParams& params, const Pose2D& laser_in
       laser_in_base_(laser_in_base),
       ekf_(params.motion),
       matcher_(params.matcher, laser_in_base),
-      calibration_(params.odometry_calibration) {
+      calibration_(params.odometry_calibration),
+      gyro_check_(params.gyro_check) {
   reset();
 }
 
@@ -25,6 +26,7 @@ void LocalTracker::reset() {
   odometry_ = Pose2D{};
   gyro_yaw_ = gyro_var_ = 0;
   have_gyro_ = false;
+  gyro_check_.reset();
   strides_.clear();
   last_motion_ = Pose2D{};
   scans_ = 0;
@@ -215,7 +217,12 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
   if (scans_ > 0) {
     ekf_.predict(u);
     if (!odometry_available_) ekf_.reset(ekf_.pose(), ekf_.covariance() + noOdometryCovariance());
-    if (params_.use_imu && have_gyro_ && gyro_var_ > 0) step.imu_used = ekf_.updateYawIncrement(gyro_yaw_, gyro_var_);
+    if (params_.use_imu && have_gyro_ && gyro_var_ > 0) {
+      // Against the raw odometry: its calibration learns from matches the gyro has steered.
+      if (odometry_available_ && gyro_check_.observe(raw.yaw, gyro_yaw_)) step.gyro_problem = gyro_check_.problem();
+      if (gyro_check_.refused()) step.gyro_set_aside = true;
+      else step.imu_used = ekf_.updateYawIncrement(gyro_yaw_, gyro_var_);
+    }
   }
   // What the gyro says the robot turned, for the no-motion hypothesis of a doubted increment.
   const double turned = step.imu_used ? gyro_yaw_ : 0.0;

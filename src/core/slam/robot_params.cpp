@@ -30,6 +30,9 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"no_odometry_max_yaw", &p.no_odometry_max_yaw},
       {"use_scan_matching", &p.use_scan_matching},
       {"use_imu", &p.use_imu},
+      {"imu_check_turns", &p.gyro_check.turns},
+      {"imu_check_min_turn", &p.gyro_check.min_turn},
+      {"imu_check_max_ratio", &p.gyro_check.max_ratio},
       {"icp_keyframes", &s.keyframes},
       {"icp_keyframe_distance", &s.keyframe_distance},
       {"icp_keyframe_angle", &s.keyframe_angle},
@@ -195,6 +198,9 @@ const Limit kLimits[] = {
     {"graph_refine_rounds", 100.0, true},
     {"graph_refine_max_correspondence", 100.0, false},
     {"graph_refine_min_goodness", 1.0, true},
+    {"imu_check_turns", 1000.0, true},
+    {"imu_check_min_turn", 3.15, true},
+    {"imu_check_max_ratio", 1000.0, false},
 };
 
 std::string number(double v) {
@@ -236,6 +242,7 @@ std::string robotSlamParamsProblem(const RobotSlamParams& p) {
     return "icp_min_correspondence must be at most icp_max_correspondence";
   if (!(p.graph.refine_max_correspondence >= p.matcher.min_correspondence))
     return "graph_refine_max_correspondence must be at least icp_min_correspondence";
+  if (!(p.gyro_check.max_ratio >= 1)) return "imu_check_max_ratio must be at least 1 (got " + number(p.gyro_check.max_ratio) + ")";
   if (p.graph.solver != "ceres" && p.graph.solver != "mrpt")
     return "graph_solver must be ceres or mrpt (got '" + p.graph.solver + "')";
   return "";
