@@ -2,6 +2,10 @@
 // rotation (sensor_mount.h), on real Intel scans.
 #include <gtest/gtest.h>
 
+#include <mrpt/obs/CObservation2DRangeScan.h>
+#include <mrpt/obs/CRawlog.h>
+#include <mrpt/obs/CSensoryFrame.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -57,6 +61,47 @@ TEST(SensorMount, AnUpsideDownLaserSeesWhatAnUprightOneSees) {
   EXPECT_GT(compared, 2000u);
   EXPECT_LT(worst, 1e-4) << "m between a return read from the upside-down laser and the same return read upright";
   EXPECT_GT(mirrored_worst, 1.0) << "m: read as upright, the scans would be mirrored";
+}
+
+// MRPT keeps a laser's full 3D pose in the rawlog; the reader took its yaw alone.
+TEST(SensorMount, AnUpsideDownLaserInAnMrptRawlogIsReadUpright) {
+  const std::string original = test::dataPath("logs/mrpt/2006-01ENE-21-SENA_Telecom_Faculty_one_loop_only.rawlog");
+  mrpt::obs::CRawlog rawlog;
+  ASSERT_TRUE(rawlog.loadFromRawLogFile(original));
+  size_t turned = 0;
+  for (size_t i = 0; i < rawlog.size(); ++i) {
+    if (rawlog.getType(i) != mrpt::obs::CRawlog::etSensoryFrame) continue;
+    const auto obs = rawlog.getAsObservations(i)->getObservationByClass<mrpt::obs::CObservation2DRangeScan>();
+    if (!obs) continue;
+    // The same beams from the laser rolled 180 degrees about its x axis: listed the other way round.
+    const size_t n = obs->getScanSize();
+    std::vector<float> ranges(n);
+    std::vector<bool> valid(n);
+    for (size_t k = 0; k < n; ++k) ranges[k] = obs->getScanRange(k), valid[k] = obs->getScanRangeValidity(k);
+    for (size_t k = 0; k < n; ++k) obs->setScanRange(k, ranges[n - 1 - k]), obs->setScanRangeValidity(k, valid[n - 1 - k]);
+    const mrpt::poses::CPose3D pose = obs->sensorPose;
+    obs->sensorPose.setFromValues(pose.x(), pose.y(), pose.z(), pose.yaw(), pose.pitch(), pose.roll() + M_PI);
+    ++turned;
+  }
+  ASSERT_GT(turned, 200u);
+  const std::string path = ::testing::TempDir() + "/upside_down.rawlog";
+  ASSERT_TRUE(rawlog.saveToRawLogFile(path));
+  const RobotLog upright = readRobotLog(original), upside_down = readRobotLog(path);
+  ASSERT_EQ(upside_down.records.size(), upright.records.size());
+  EXPECT_NEAR(upside_down.laser_in_base.x, upright.laser_in_base.x, 1e-9);
+  EXPECT_NEAR(upside_down.laser_in_base.y, upright.laser_in_base.y, 1e-9);
+  EXPECT_NEAR(Pose2D::normalizeAngle(upside_down.laser_in_base.yaw - upright.laser_in_base.yaw), 0.0, 1e-9);
+  double worst = 0;
+  size_t compared = 0;
+  for (size_t i = 0; i < upright.records.size(); ++i) {
+    const auto truth = scanPoints(upright.records[i].scan, upright.laser_in_base);
+    const auto read = scanPoints(upside_down.records[i].scan, upside_down.laser_in_base);
+    ASSERT_EQ(read.size(), truth.size());
+    for (size_t k = 0; k < truth.size(); ++k, ++compared)
+      worst = std::max<double>(worst, std::hypot(read[k].first - truth[k].first, read[k].second - truth[k].second));
+  }
+  EXPECT_GT(compared, 10000u);
+  EXPECT_LT(worst, 1e-4) << "m between a return of the upside-down laser and the same return of the upright one";
 }
 
 TEST(SensorMount, AnUprightLaserKeepsItsScansAsTheyAre) {

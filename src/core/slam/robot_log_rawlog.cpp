@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "mrslam/slam/robot_log.h"
+#include "mrslam/slam/sensor_mount.h"
 
 namespace mrslam::slam {
 
@@ -94,8 +95,15 @@ RobotLog readMrptRawlog(const std::string& path) {
       scan.ranges.resize(n);
       for (size_t k = 0; k < n; ++k)
         scan.ranges[k] = obs->getScanRangeValidity(k) ? obs->getScanRange(k) : std::numeric_limits<float>::quiet_NaN();
+      // The laser's mounting from its full 3D pose (sensor_mount.h): one upside down (roll 180
+      // degrees) lists its beams the other way round, which the yaw alone would mirror.
+      std::string problem;
+      const Eigen::Matrix3d rotation = obs->sensorPose.getRotationMatrix().asEigen();
+      const auto mount = laserMount(Eigen::Quaterniond(rotation), obs->sensorPose.x(), obs->sensorPose.y(), &problem);
+      if (!mount) throw LogError(path + ": entry " + std::to_string(i) + ": " + problem);
+      if (mount->upside_down) scan = uprightScan(std::move(scan));
       if (!laser_pose_set) {
-        log.laser_in_base = {obs->sensorPose.x(), obs->sensorPose.y(), obs->sensorPose.yaw()};
+        log.laser_in_base = mount->pose;
         laser_pose_set = true;
       }
       if (!log.records.empty()) record.odometry = since_scan;
