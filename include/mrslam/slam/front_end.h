@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "mrslam/grid.h"
-#include "mrslam/slam/gyro_check.h"
 #include "mrslam/slam/ekf2d.h"
 #include "mrslam/slam/grid_mapper.h"
+#include "mrslam/slam/gyro_check.h"
 #include "mrslam/slam/laser_scan.h"
 #include "mrslam/slam/odometry_calibration.h"
 #include "mrslam/slam/scan_matcher.h"
