@@ -6,7 +6,10 @@
 // from one pose (a robot that believed it stood still) must do far worse, which proves the laser
 // moved and that the bound can fail. Also checks: nearly every scan used, the grid published,
 // and tf map -> laser following the published pose. Robot name, base frame and the wait are
-// the test's parameters (test/laser_only.test passes the launch's).
+// the test's parameters (test/laser_only.test passes the launch's). After the bag, this node
+// takes the silent scan topic over and sends scans from another laser frame, which must be
+// refused and counted, not read as the first laser's.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
@@ -113,6 +116,66 @@ TEST(LaserOnly, TracksALaserCarriedThroughRoomsFromItsScansAlone) {
   EXPECT_NEAR(t.translation.x, last.x, 0.02);
   EXPECT_NEAR(t.translation.y, last.y, 0.02);
   EXPECT_NEAR(Pose2D::normalizeAngle(tf2::getYaw(t.rotation) - last.yaw), 0.0, 0.01);
+}
+
+// Runs after the test above: the bag has ended and its scans are all used.
+TEST(LaserOnly, RefusesScansFromAnotherLaserFrame) {
+  ros::NodeHandle nh, pnh("~");
+  std::string robot;
+  pnh.param<std::string>("robot", robot, "ccny");
+  const std::string ns = "/" + robot + "/";
+  std::mutex mutex;
+  nav_msgs::Path::ConstPtr trajectory;
+  long refused = -1;
+  auto path_sub = nh.subscribe<nav_msgs::Path>(ns + "trajectory", 1, [&](const nav_msgs::Path::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    trajectory = m;
+  });
+  auto diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& status : m->status)
+      for (const auto& kv : status.values)
+        if (kv.key == "scans refused from another laser frame") refused = std::stol(kv.value);
+  });
+  auto scan_pub = nh.advertise<sensor_msgs::LaserScan>(ns + "scan", 10);
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  // The scan topic belongs to the bag's player until it has been silent for input_owner_timeout (5 s).
+  ros::WallDuration(6.0).sleep();
+  ros::Time last;
+  size_t poses_before = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    ASSERT_TRUE(trajectory && !trajectory->poses.empty()) << "no trajectory (latched) on " << ns << "trajectory";
+    last = trajectory->poses.back().header.stamp;
+    poses_before = trajectory->poses.size();
+  }
+  // Well-formed scans, just after the last one, from a second laser.
+  constexpr int kScans = 5;
+  for (int k = 1; k <= kScans; ++k) {
+    sensor_msgs::LaserScan scan;
+    scan.header.stamp = last + ros::Duration(0.1 * k);
+    scan.header.frame_id = "laser_rear";
+    scan.angle_min = -2.0f;
+    scan.angle_increment = 0.01f;
+    scan.angle_max = scan.angle_min + scan.angle_increment * 399;
+    scan.range_min = 0.1f;
+    scan.range_max = 30.0f;
+    scan.ranges.assign(400, 2.0f);
+    scan_pub.publish(scan);
+    ros::WallDuration(0.2).sleep();
+  }
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (ros::WallTime::now() < deadline) {
+    ros::WallDuration(0.2).sleep();
+    std::lock_guard<std::mutex> lock(mutex);
+    if (refused >= kScans) break;
+  }
+  ros::WallDuration(1.5).sleep();  // a trajectory the scans would have lengthened is republished within a second
+  std::lock_guard<std::mutex> lock(mutex);
+  std::printf("another laser frame: %ld scans refused\n", refused);
+  EXPECT_EQ(refused, kScans) << "scans from another laser frame were not refused";
+  EXPECT_EQ(trajectory->poses.size(), poses_before) << "scans from another laser frame were used";
 }
 
 }  // namespace

@@ -390,6 +390,15 @@ class SlamNodelet : public nodelet::Nodelet {
       return;
     }
     if (!robot_ && !startFrontEnd(msg->header.frame_id)) return;
+    // The front end holds one laser's mounting: a scan from another frame (a second laser on the
+    // topic, a driver restarted with another frame_id) would be read as if taken by the first.
+    if (bareFrame(msg->header.frame_id) != laser_frame_) {
+      ++rejected_, ++other_frame_scans_;
+      last_problem_ = "scan in frame " + printable(msg->header.frame_id) + " refused: this SLAM reads one laser, in frame " +
+                      laser_frame_;
+      NODELET_WARN_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return;
+    }
     if (use_odometry_ && !addOdometry(msg->header.stamp)) return;
     if (stamp_gate_->last() && params_.use_imu) integrateGyro(*stamp_gate_->last(), t);
     stamp_gate_->used(t);
@@ -431,6 +440,7 @@ class SlamNodelet : public nodelet::Nodelet {
       mount = *mounted;
     }
     mount_problem_.clear();
+    laser_frame_ = bareFrame(laser_frame);
     laser_upside_down_ = mount.upside_down;
     robot_ = slam::makeFrontEnd(params_, mount.pose);
     robot_->setOdometryAvailable(use_odometry_);
@@ -605,6 +615,7 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("resets (time jumps)", resets_);
     status.add("largest lead of a scan over the clock (s)", clock_lag_);
     status.add("scans refused from a second publisher", impostor_scans_);
+    status.add("scans refused from another laser frame", other_frame_scans_);
     status.add("odometry transforms refused from a second publisher", tf_refusals.transforms);
     status.add("odometry publisher", tf_refusals.holder.empty() ? std::string("none yet") : printable(tf_refusals.holder));
     status.add("scan publisher", scan_owner_.holder().empty() ? std::string("none yet") : printable(scan_owner_.holder()));
@@ -659,6 +670,7 @@ class SlamNodelet : public nodelet::Nodelet {
   slam::GyroBuffer gyro_;  // input_mutex_
   double gyro_heard_ = 0;  // wall s of the last gyro sample; input_mutex_
   std::optional<std::pair<std::string, Eigen::Quaterniond>> imu_mount_;  // the IMU's frame in base_frame; input_mutex_
+  std::string laser_frame_;          // the laser the front end was started with (mutex_)
   bool laser_upside_down_ = false;  // its scans are mirrored into an upright laser's (mutex_)
   std::string mount_problem_;       // why the laser's mounting was refused (mutex_)
   uint64_t published_version_ = ~0ull;
@@ -669,6 +681,7 @@ class SlamNodelet : public nodelet::Nodelet {
   size_t scans_without_gyro_ = 0;     // input_mutex_
   size_t rejected_ = 0, resets_ = 0, maps_published_ = 0;
   size_t impostor_scans_ = 0;
+  size_t other_frame_scans_ = 0;  // mutex_
   PublisherClaim scan_owner_;  // the node whose scans are used
   double input_owner_timeout_ = 5.0;
   size_t faults_ = 0;
