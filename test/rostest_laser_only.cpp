@@ -126,7 +126,7 @@ TEST(LaserOnly, RefusesScansFromAnotherLaserFrame) {
   const std::string ns = "/" + robot + "/";
   std::mutex mutex;
   nav_msgs::Path::ConstPtr trajectory;
-  long refused = -1;
+  long refused = -1, resets = -1;
   auto path_sub = nh.subscribe<nav_msgs::Path>(ns + "trajectory", 1, [&](const nav_msgs::Path::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex);
     trajectory = m;
@@ -136,6 +136,7 @@ TEST(LaserOnly, RefusesScansFromAnotherLaserFrame) {
     for (const auto& status : m->status)
       for (const auto& kv : status.values)
         if (kv.key == "scans refused from another laser frame") refused = std::stol(kv.value);
+        else if (kv.key == "resets (time jumps)") resets = std::stol(kv.value);
   });
   auto scan_pub = nh.advertise<sensor_msgs::LaserScan>(ns + "scan", 10);
   ros::AsyncSpinner spinner(2);
@@ -150,11 +151,12 @@ TEST(LaserOnly, RefusesScansFromAnotherLaserFrame) {
     last = trajectory->poses.back().header.stamp;
     poses_before = trajectory->poses.size();
   }
-  // Well-formed scans, just after the last one, from a second laser.
-  constexpr int kScans = 5;
+  // Well-formed scans from a second laser: after the last one, then 30 s back and advancing
+  // again (three such in a row would count as a restarted bag and wipe the map).
+  constexpr int kAhead = 5, kBack = 3, kScans = kAhead + kBack;
   for (int k = 1; k <= kScans; ++k) {
     sensor_msgs::LaserScan scan;
-    scan.header.stamp = last + ros::Duration(0.1 * k);
+    scan.header.stamp = k <= kAhead ? last + ros::Duration(0.1 * k) : last - ros::Duration(30.0 - 0.1 * (k - kAhead));
     scan.header.frame_id = "laser_rear";
     scan.angle_min = -2.0f;
     scan.angle_increment = 0.01f;
@@ -173,9 +175,10 @@ TEST(LaserOnly, RefusesScansFromAnotherLaserFrame) {
   }
   ros::WallDuration(1.5).sleep();  // a trajectory the scans would have lengthened is republished within a second
   std::lock_guard<std::mutex> lock(mutex);
-  std::printf("another laser frame: %ld scans refused\n", refused);
+  std::printf("another laser frame: %ld scans refused, %ld resets\n", refused, resets);
+  EXPECT_EQ(resets, 0) << "scans from another laser frame restarted the map";
   EXPECT_EQ(refused, kScans) << "scans from another laser frame were not refused";
-  EXPECT_EQ(trajectory->poses.size(), poses_before) << "scans from another laser frame were used";
+  EXPECT_EQ(trajectory->poses.size(), poses_before) << "scans from another laser frame were used, or restarted the map";
 }
 
 }  // namespace

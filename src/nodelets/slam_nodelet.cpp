@@ -373,6 +373,16 @@ class SlamNodelet : public nodelet::Nodelet {
       NODELET_ERROR_THROTTLE(5.0, "%s", last_problem_.c_str());
       return false;
     }
+    // The front end holds one laser's mounting: a scan from another frame (a second laser on the
+    // topic, a driver restarted with another frame_id) would be read as if taken by the first,
+    // and three of its stamps going back would restart the map.
+    if (robot_ && bareFrame(msg.header.frame_id) != laser_frame_) {
+      ++rejected_, ++other_frame_scans_;
+      last_problem_ = "scan in frame " + printable(msg.header.frame_id) + " refused: this SLAM reads one laser, in frame " +
+                      laser_frame_;
+      NODELET_WARN_THROTTLE(5.0, "%s", last_problem_.c_str());
+      return false;
+    }
     return true;
   }
 
@@ -390,15 +400,6 @@ class SlamNodelet : public nodelet::Nodelet {
       return;
     }
     if (!robot_ && !startFrontEnd(msg->header.frame_id)) return;
-    // The front end holds one laser's mounting: a scan from another frame (a second laser on the
-    // topic, a driver restarted with another frame_id) would be read as if taken by the first.
-    if (bareFrame(msg->header.frame_id) != laser_frame_) {
-      ++rejected_, ++other_frame_scans_;
-      last_problem_ = "scan in frame " + printable(msg->header.frame_id) + " refused: this SLAM reads one laser, in frame " +
-                      laser_frame_;
-      NODELET_WARN_THROTTLE(5.0, "%s", last_problem_.c_str());
-      return;
-    }
     if (use_odometry_ && !addOdometry(msg->header.stamp)) return;
     if (stamp_gate_->last() && params_.use_imu) integrateGyro(*stamp_gate_->last(), t);
     stamp_gate_->used(t);

@@ -250,6 +250,8 @@ size_t writeGyro(rosbag::Bag& bag, const std::string& ns, slam::SimulatedGyro& g
                  double t0, double t1, double true_change, bool turned) {
   if (t1 - t0 > kMaxGyroGap) return 0;
   const double rate_variance = std::pow(model.noise_density * M_PI / 180.0, 2) * model.rate_hz;
+  // The robot's z axis in the gyro's frame: the turn, and its noise, lie along it.
+  const Eigen::Vector3d axis = (turned ? kGyroOnItsSide.conjugate() : Eigen::Quaterniond::Identity()) * Eigen::Vector3d::UnitZ();
   size_t n = 0;
   for (const slam::GyroSample& s : gyro.samples(t0, t1, true_change)) {
     sensor_msgs::Imu imu;
@@ -257,8 +259,6 @@ size_t writeGyro(rosbag::Bag& bag, const std::string& ns, slam::SimulatedGyro& g
     imu.header.frame_id = ns + (turned ? "/imu" : "/base_link");
     imu.orientation_covariance[0] = -1;          // no orientation
     imu.linear_acceleration_covariance[0] = -1;  // no accelerometer
-    // The robot's z axis in the gyro's frame: the turn, and its noise, lie along it.
-    const Eigen::Vector3d axis = (turned ? kGyroOnItsSide.conjugate() : Eigen::Quaterniond::Identity()) * Eigen::Vector3d::UnitZ();
     imu.angular_velocity.x = axis.x() * s.rate;
     imu.angular_velocity.y = axis.y() * s.rate;
     imu.angular_velocity.z = axis.z() * s.rate;
