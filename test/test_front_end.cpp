@@ -318,6 +318,24 @@ TEST(LaserScan, BadBeamsAreSkippedAndBadScansNamed) {
   EXPECT_NE(scanProblem(scan).find("disagree"), std::string::npos);
 }
 
+// A log whose laser writes "no return" as its stated maximum (5.6 beside a PARAM line of 5.6)
+// holds that reading as 5.5999999f, below the double 5.6: every beam that saw nothing was a
+// wall at the maximum range (the bundled logs cut to 5.6 m: Freiburg 101 lost, 4.7 m).
+TEST(LaserScan, AReadingAtTheMaximumRangeIsNoReturn) {
+  LaserScan scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / 2;
+  scan.range_min = 0.01;
+  scan.range_max = 5.6;
+  scan.ranges = {5.6f, 5.59f, 81.91f};
+  EXPECT_FALSE(isReturn(scan, scan.ranges[0]));
+  EXPECT_TRUE(isNoReturn(scan, scan.ranges[0]));
+  EXPECT_TRUE(isReturn(scan, scan.ranges[1]));
+  EXPECT_TRUE(isNoReturn(scan, scan.ranges[2]));
+  EXPECT_EQ(validBeams(scan), 1u);
+  EXPECT_EQ(scanPoints(scan, Pose2D{}).size(), 1u);
+}
+
 TEST(ScanMatching, RealConsecutiveIntelScansAlignToTheReference) {
   const RobotLog& log = intelLog();
   // One scan against the previous one only (the hardest case for the matcher): most pairs

@@ -27,7 +27,7 @@ MapConsistency mapConsistency(const std::vector<const slam::LaserScan*>& scans, 
     const int x0 = cell(laser.x), y0 = cell(laser.y);
     for (size_t b = 0; b < scan.ranges.size(); ++b) {
       const float r = scan.ranges[b];
-      if (!std::isfinite(r) || r < scan.range_min || r >= scan.range_max || r > max_range) continue;
+      if (!slam::isReturn(scan, r) || r > max_range) continue;
       const double a = laser.yaw + scan.angle_min + b * scan.angle_increment;
       const int x1 = cell(laser.x + r * std::cos(a)), y1 = cell(laser.y + r * std::sin(a));
       // Bresenham from the laser to the end cell: misses on the way, a hit at the end.

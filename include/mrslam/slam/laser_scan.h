@@ -22,6 +22,12 @@ struct LaserScan {
 // (NaN, inf, out of range) are not a reason: they are skipped by validBeams().
 std::string scanProblem(const LaserScan& scan);
 
+// A reading is a return when finite and within [range_min, range_max), and "no return" (the beam
+// met nothing up to the sensor's maximum) when at or beyond range_max, compared in the ranges'
+// own single precision.
+bool isReturn(const LaserScan& scan, float r);
+bool isNoReturn(const LaserScan& scan, float r);
+
 // Number of beams that are real returns: finite and within [range_min, range_max).
 size_t validBeams(const LaserScan& scan);
 

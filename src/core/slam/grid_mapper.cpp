@@ -68,13 +68,13 @@ void GridMapper::insert(const LaserScan& scan, const Pose2D& pose) {
   if (!scanProblem(scan).empty() || scan.ranges.size() < 2) return;
   auto& map = impl_->map;
   const mrpt::poses::CPose3D robot(pose.x, pose.y, 0, pose.yaw, 0, 0);
-  auto is_return = [&](float r) { return std::isfinite(r) && r >= scan.range_min && r < scan.range_max; };
+  auto is_return = [&](float r) { return isReturn(scan, r); };
   map.insertObservation(observation(scan, laser_in_base_, is_return, [](float r) { return r; }), robot);
   // No return (at or beyond the sensor's maximum) says the beam met nothing up to a cap: free
   // space, never an obstacle. MRPT marks no end cell for a ray truncated at
   // maxDistanceInsertion, so these rays go in with exactly that length.
   const float cap = static_cast<float>(params_.no_return_range);
-  auto is_no_return = [&](float r) { return !std::isnan(r) && r >= scan.range_max; };
+  auto is_no_return = [&](float r) { return isNoReturn(scan, r); };
   if (cap > 0 && std::any_of(scan.ranges.begin(), scan.ranges.end(), is_no_return)) {
     map.insertionOptions.maxDistanceInsertion = cap;
     map.insertObservation(observation(scan, laser_in_base_, is_no_return, [cap](float) { return cap; }), robot);

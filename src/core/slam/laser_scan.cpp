@@ -5,11 +5,14 @@
 
 namespace mrslam::slam {
 
-namespace {
+// Compared as the ranges are stored, in single precision: a log whose no-return reading is its
+// stated maximum (5.6 beside a PARAM line of 5.6) holds that reading as 5.5999999f, below the
+// double 5.6, and every beam that saw nothing became a wall at the maximum range.
 bool isReturn(const LaserScan& scan, float r) {
-  return std::isfinite(r) && r >= scan.range_min && r < scan.range_max;
+  return std::isfinite(r) && r >= static_cast<float>(scan.range_min) && r < static_cast<float>(scan.range_max);
 }
-}  // namespace
+
+bool isNoReturn(const LaserScan& scan, float r) { return !std::isnan(r) && r >= static_cast<float>(scan.range_max); }
 
 std::string scanProblem(const LaserScan& scan) {
   if (scan.ranges.empty()) return "scan has no ranges";

@@ -100,7 +100,7 @@ void writeMrptRawlog(const RobotLog& log, const std::string& path) {
       scan->resizeScan(n);
       for (size_t i = 0; i < n; ++i) {
         const float range = s.ranges[i];
-        const bool valid = std::isfinite(range) && range >= s.range_min && range < s.range_max;
+        const bool valid = isReturn(s, range);
         scan->setScanRange(i, valid ? range : 0.0f);
         scan->setScanRangeValidity(i, valid);
       }
