@@ -76,6 +76,9 @@ struct SeedParams {
   double reverse_max_distance = 1.0;  // m: ...over increments at most this long (the longer the
                                  // increment, the more a pose inside the mapped area outscores
                                  // one facing unmapped space along a corridor)
+  double reverse_max_reach_share = 0.25;  // ...and at most this share of how far the scan sees (95 %
+                                 // of its returns within it): a short laser's new ground ahead fits
+                                 // worse than any mapped place behind
   double resolution = 0.05;      // m, of the likelihood grid
   double sigma = 0.05;           // m, likelihood kernel
   // m: the search sees the key scans within this much path of the newest (<= 0: all): at slow
@@ -90,6 +93,11 @@ struct SeedParams {
                                  // this much higher there than at the prediction (0: never)...
   double alone_sigma_xy = 0.1;   // m: ...with these standard deviations
   double alone_sigma_yaw = 0.035;  // rad
+  // A scan overrules the odometry (a slip, a jump, a reversal, a missed turn, a lost robot
+  // searched at every heading, a pose placed by the search alone) only with at least this many
+  // returns, thinned to the search grid: 10-30 of them fit a cluttered local map somewhere wrong
+  // (a 5.6 m laser in a hall), and the sound odometry they overruled was lost.
+  int overrule_min_points = 50;
 };
 
 // The pose graph back end (graph_slam.h).

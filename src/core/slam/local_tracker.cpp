@@ -61,6 +61,19 @@ constexpr double kStrideQuantile = 0.75;
 constexpr double kMovingStride = 0.05;  // m
 constexpr double kStoodStill = 0.1;     // m: an increment shorter than this says the robot stood
 
+namespace {
+// How far the scan sees: the range within which 95 % of its returns lie (base frame).
+double reach(const Points2& points) {
+  if (points.empty()) return 0.0;
+  std::vector<double> ranges;
+  ranges.reserve(points.size());
+  for (const auto& [x, y] : points) ranges.push_back(std::hypot(x, y));
+  const size_t k = (ranges.size() - 1) * 95 / 100;
+  std::nth_element(ranges.begin(), ranges.begin() + k, ranges.end());
+  return ranges[k];
+}
+}  // namespace
+
 double LocalTracker::typicalStride() const {
   if (strides_.empty()) return 0.0;
   std::vector<double> sorted(strides_.begin(), strides_.end());
@@ -180,6 +193,12 @@ std::optional<Pose2D> LocalTracker::reversedPrediction(const Points2& points, co
   const double driven = std::hypot(u.x, u.y);
   if (!sp.enabled || sp.reverse_margin <= 0 || driven < sp.resolution || driven > sp.reverse_max_distance)
     return std::nullopt;
+  // Driven forwards, a scan sees ground the local map has not, and fits it worse than it fits
+  // any mapped place behind: the bias grows with the increment against how far the laser sees.
+  // Over the bundled and Radish logs, a laser cut to 4 m and 5.6 m, and their slow-scanner
+  // decimations, every true reversal was at most 0.2 of the reach and 27 of the 36 false ones
+  // 0.25-0.36 (1 m steps of a 4 m laser), each of which lost twice its length.
+  if (driven > sp.reverse_max_reach_share * reach(points)) return std::nullopt;
   const Pose2D forward = ekf_.pose();
   Pose2D backward = before.compose(Pose2D{-u.x, -u.y, u.yaw});
   backward.yaw = forward.yaw;  // the turn (and a gyro's correction of it) stands either way
@@ -233,7 +252,9 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const SeedParams& sp = params_.seed;
     // The scan as the correlative searches see it (thinned to their grid), made once per scan.
     const Points2 points = sp.enabled ? thinPoints(scanPoints(scan, laser_in_base_), sp.resolution) : Points2{};
-    if (scans_ > 0 && odometry_available_ && !step.odometry_doubted) {
+    // Too few returns to tell a wrong fit from the right one: the odometry stands, whatever fits.
+    const bool can_overrule = points.size() >= static_cast<size_t>(std::max(0, sp.overrule_min_points));
+    if (scans_ > 0 && odometry_available_ && !step.odometry_doubted && can_overrule) {
       // Some odometry reports speed without its sign (every backward step of the bundled
       // CARMEN logs is written as forward motion): the scan decides the direction.
       if (const auto backward = reversedPrediction(points, before, u)) {
@@ -253,7 +274,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const bool stood = odometry_available_ && scans_ > 0 && !step.imu_used &&
                        std::hypot(u.x, u.y) < kStoodStill && std::abs(u.yaw) < sp.max_yaw;
     const bool uncertain = step.odometry_doubted || sigma_xy > sp.min_sigma_xy || sigma_yaw > sp.min_sigma_yaw;
-    const bool check_lost = stood && sp.lost_below_score > 0;
+    const bool check_lost = stood && sp.lost_below_score > 0 && can_overrule;
     const double fit = sp.enabled && (uncertain || check_lost) ? seedGrid().score(transformPoints(points, guess)) : 0.0;
     const bool lost = sp.enabled && check_lost && fit < sp.lost_below_score;
     if (sp.enabled && (uncertain || lost)) {
@@ -278,14 +299,14 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       // Nothing near the prediction, and the scan hardly fits there: the odometry may have missed
       // a turn while it drove (Seattle, every 3rd scan: a 1 m step the reference turns 103
       // degrees over and the odometry 23; the map came out rotated from there, 6.2 m global error).
-      if (!seed.found && !lost && !step.odometry_doubted && odometry_available_ && !step.imu_used &&
+      if (!seed.found && !lost && !step.odometry_doubted && odometry_available_ && !step.imu_used && can_overrule &&
           fit < sp.lost_below_score) {
         if (auto turned_more = missedTurn(points, guess, max_xy, prior.isotropic())) {
           seed = *turned_more;
           step.odometry_missed_turn = true;
         }
       }
-      if (step.odometry_doubted) {
+      if (step.odometry_doubted && can_overrule) {
         const Pose2D still{before.x, before.y, Pose2D::normalizeAngle(before.yaw + turned)};
         const CorrelativeMatch at_rest = seedMatch(points, still, xy, yaw, prior.isotropic());  // drove nowhere
         // Odometry is data: the robot stood still only when the scan clearly says so (along a
@@ -314,7 +335,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       step.match.ok = true;
       step.match.reason.clear();
     }
-    if (!step.match.ok && step.seeded && seedStandsAlone(step)) {
+    if (!step.match.ok && step.seeded && can_overrule && seedStandsAlone(step)) {
       // ICP pairs too few points to confirm (scans metres apart share little), yet the scan
       // fits the local map far better at the seed than where odometry put it: odometry erred
       // beyond what ICP can pull back, so the seed is the measurement, at the search's
@@ -330,7 +351,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
       // A doubted prediction is worthless as a prior: let the match decide.
       if (step.odometry_doubted) ekf_.reset(ekf_.pose(), ekf_.covariance() + Eigen::Matrix3d::Identity());
       step.matched = ekf_.updatePose(step.match.pose, step.match.covariance);
-      if (!step.matched && scanPrefers(points, step.match.pose, ekf_.pose())) {
+      if (!step.matched && can_overrule && scanPrefers(points, step.match.pose, ekf_.pose())) {
         // The gate says the match is far from the prediction, but the scan fits the local map
         // clearly better there: the odometry slipped (a bump, a wheel off the floor) while
         // predicting with confidence. Trust the scan.

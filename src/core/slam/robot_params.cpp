@@ -80,6 +80,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"seed_slip_margin", &seed.slip_margin},
       {"seed_reverse_margin", &seed.reverse_margin},
       {"seed_reverse_max_distance", &seed.reverse_max_distance},
+      {"seed_reverse_max_reach_share", &seed.reverse_max_reach_share},
       {"seed_resolution", &seed.resolution},
       {"seed_sigma", &seed.sigma},
       {"seed_local_path", &seed.local_path},
@@ -90,6 +91,7 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"seed_alone_margin", &seed.alone_margin},
       {"seed_alone_sigma_xy", &seed.alone_sigma_xy},
       {"seed_alone_sigma_yaw", &seed.alone_sigma_yaw},
+      {"seed_overrule_min_points", &seed.overrule_min_points},
       {"odometry_calibration", &p.odometry_calibration.enabled},
       {"odometry_calibration_forgetting", &p.odometry_calibration.forgetting},
       {"odometry_calibration_min_distance", &p.odometry_calibration.min_distance},
@@ -199,6 +201,7 @@ const Limit kLimits[] = {
     {"graph_refine_max_correspondence", 100.0, false},
     {"graph_refine_min_goodness", 1.0, true},
     {"imu_check_turns", 1000.0, true},
+    {"seed_overrule_min_points", 100000.0, true},
     {"imu_check_min_turn", 3.15, true},
     {"imu_check_max_ratio", 1000.0, false},
 };
