@@ -320,7 +320,8 @@ TEST(LaserScan, BadBeamsAreSkippedAndBadScansNamed) {
 
 // A log whose laser writes "no return" as its stated maximum (5.6 beside a PARAM line of 5.6)
 // holds that reading as 5.5999999f, below the double 5.6: every beam that saw nothing was a
-// wall at the maximum range (the bundled logs cut to 5.6 m: Freiburg 101 lost, 4.7 m).
+// wall at the maximum range (the bundled logs cut that way to a 5.6 m laser: Freiburg 079
+// 5.95 m, ACES 2.62 m global error; read right, 0.25 and 0.47 m).
 TEST(LaserScan, AReadingAtTheMaximumRangeIsNoReturn) {
   LaserScan scan;
   scan.angle_min = -M_PI / 2;
