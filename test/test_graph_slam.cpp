@@ -1106,8 +1106,7 @@ RobotLog shortLaser(const RobotLog& log, float range) {
 // logs cut to 4 and 5.6 m). An increment longer than a quarter of the scan's reach is never
 // reversed; Freiburg 079's real reversals (at most 0.2 of it) still are, the laser cut or not.
 TEST(GraphSlam, AShortLaserDoesNotReadForwardStepsBackwards) {
-  RobotSlamParams params = defaults();
-  params.use_imu = false;
+  const RobotSlamParams params = withoutGyro();
   RobotSlamParams unbounded = params;
   unbounded.seed.reverse_max_reach_share = 1e9;
   size_t false_before = 0;
@@ -1135,8 +1134,7 @@ TEST(GraphSlam, AShortLaserDoesNotReadForwardStepsBackwards) {
 // error; here, with any number of returns allowed to overrule, 4.7 m). A scan overrules the
 // odometry only with seed_overrule_min_points returns: 0.34 m.
 TEST(GraphSlam, AFewReturnsDoNotOverruleSoundOdometry) {
-  RobotSlamParams params = defaults();
-  params.use_imu = false;
+  const RobotSlamParams params = withoutGyro();
   RobotSlamParams any = params;
   any.seed.overrule_min_points = 0;
   const RobotLog cut = shortLaser(freiburg101Log(), 5.6f);

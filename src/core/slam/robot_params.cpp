@@ -200,8 +200,8 @@ const Limit kLimits[] = {
     {"graph_refine_rounds", 100.0, true},
     {"graph_refine_max_correspondence", 100.0, false},
     {"graph_refine_min_goodness", 1.0, true},
-    {"imu_check_turns", 1000.0, true},
     {"seed_overrule_min_points", 100000.0, true},
+    {"imu_check_turns", 1000.0, true},
     {"imu_check_min_turn", 3.15, true},
     {"imu_check_max_ratio", 1000.0, false},
 };
