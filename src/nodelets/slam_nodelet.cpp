@@ -147,7 +147,8 @@ class SlamNodelet : public nodelet::Nodelet {
     const slam::FrontEndStats stats = robot_->stats();
     response.success = true;
     response.message = "run finished: " + std::to_string(stats.nodes_refined) + " of " + std::to_string(stats.nodes) +
-                       " nodes refined; the map and trajectory follow within 1/map_publish_rate s";
+                       " nodes refined (" + std::to_string(stats.nodes_reseated) +
+                       " after a correlative search); the map and trajectory follow within 1/map_publish_rate s";
     return true;
   }
 

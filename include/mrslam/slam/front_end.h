@@ -164,6 +164,9 @@ struct GraphParams {
   double refine_max_correspondence = 0.2;  // m: ICP's first pairing distance (then down to
                                            // icp_min_correspondence)
   double refine_min_goodness = 0.5;      // share of a node's points paired, or it stays where it was
+  double refine_reseat_xy = 0.5;         // m: a node paired less is searched for this far either way...
+  double refine_reseat_yaw = 0.35;       // rad: ...and this much turn (0 xy: off)...
+  double refine_reseat_margin = 0.1;     // ...and aligned again from where it fits this much better
 };
 
 struct RobotSlamParams {
@@ -243,6 +246,7 @@ struct FrontEndStats {
   size_t seeds_alone = 0;  // matched by the correlative seed alone (ICP could not confirm it)
   size_t nodes = 0, submaps = 0, submaps_redrawn = 0;
   size_t nodes_refined = 0;  // aligned to the other nodes' scans when the run ended
+  size_t nodes_reseated = 0; // of those, aligned only after a correlative search (pose_refinement.h)
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
   size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed
   size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;

@@ -255,6 +255,11 @@ void GraphSlam::refineNodes() {
   refinement.min_correspondence = params_.matcher.min_correspondence;
   refinement.min_goodness = params_.graph.refine_min_goodness;
   refinement.correspondence_points = params_.matcher.correspondence_points;
+  refinement.reseat_xy = params_.graph.refine_reseat_xy;
+  refinement.reseat_yaw = params_.graph.refine_reseat_yaw;
+  refinement.reseat_margin = params_.graph.refine_reseat_margin;
+  refinement.grid_resolution = params_.seed.resolution;
+  refinement.grid_sigma = params_.seed.sigma;
   if (refinement.rounds < 1 || nodes_.size() < 2) return;
   std::vector<const Points2*> scans;
   scans.reserve(nodes_.size());
@@ -264,6 +269,7 @@ void GraphSlam::refineNodes() {
   // the next optimisation starts from them and returns to the graph's optimum.
   poses_ = std::move(refined.poses);
   stats_.nodes_refined = refined.moved;
+  stats_.nodes_reseated = refined.reseated;
   followOptimizedPoses();
   ++map_version_;
 }

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <optional>
+#include <set>
 
-#include "mrslam/slam/point_icp.h"
+#include "mrslam/slam/correlative_matcher.h"
 
 namespace mrslam::slam {
 namespace {
@@ -23,6 +26,58 @@ Points2 placedPoints(const std::vector<const Points2*>& scans, const std::vector
   return placed;
 }
 
+// How far each node's points lie from it at most: a node farther than that from a box has no
+// point in it.
+std::vector<float> reaches(const std::vector<const Points2*>& scans) {
+  std::vector<float> reach(scans.size(), 0.0f);
+  for (size_t k = 0; k < scans.size(); ++k)
+    for (const auto& [x, y] : *scans[k]) reach[k] = std::max(reach[k], std::hypot(x, y));
+  return reach;
+}
+
+// The points of every node but `own`, placed at `poses`, within `margin` of the box around
+// `scan` (already in the map frame). Placed again for each search rather than kept beside
+// ICP's copy (Freiburg campus: 4.5 MB), only for the nodes that can reach the box.
+Points2 pointsAround(const std::vector<const Points2*>& scans, const std::vector<Pose2D>& poses,
+                     const std::vector<float>& reach, size_t own, const Points2& scan, double margin) {
+  float x_min = INFINITY, x_max = -INFINITY, y_min = INFINITY, y_max = -INFINITY;
+  for (const auto& [x, y] : scan) {
+    x_min = std::min(x_min, x), x_max = std::max(x_max, x);
+    y_min = std::min(y_min, y), y_max = std::max(y_max, y);
+  }
+  x_min -= static_cast<float>(margin), x_max += static_cast<float>(margin);
+  y_min -= static_cast<float>(margin), y_max += static_cast<float>(margin);
+  Points2 around;
+  for (size_t k = 0; k < scans.size(); ++k) {
+    const auto px = static_cast<float>(poses[k].x), py = static_cast<float>(poses[k].y);
+    if (k == own || px < x_min - reach[k] || px > x_max + reach[k] || py < y_min - reach[k] || py > y_max + reach[k])
+      continue;
+    for (const auto& [x, y] : transformPoints(*scans[k], poses[k]))
+      if (x >= x_min && x <= x_max && y >= y_min && y <= y_max) around.emplace_back(x, y);
+  }
+  return around;
+}
+
+// Where the correlative matcher puts node k's scan within the reseat window around its pose on
+// the other nodes' points, if that fits them clearly better than its pose does.
+std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std::vector<Pose2D>& poses,
+                             const std::vector<float>& reach, size_t k, const NodeRefinementParams& params) {
+  const Points2 thin = thinPoints(*scans[k], params.grid_resolution);
+  // The grid reaches past the window by the kernel's own reach (likelihood_grid.h: 3 sigma).
+  const double margin = params.reseat_xy + 3 * params.grid_sigma;
+  const Points2 around = pointsAround(scans, poses, reach, k, transformPoints(thin, poses[k]), margin);
+  if (around.empty()) return std::nullopt;
+  auto grid = std::make_shared<const LikelihoodGrid>(around, params.grid_resolution, params.grid_sigma, margin);
+  const double here = grid->score(transformPoints(thin, poses[k]));
+  SearchWindow window;
+  window.center = poses[k];
+  window.xy = params.reseat_xy;
+  window.yaw = params.reseat_yaw;
+  const CorrelativeMatch best = CorrelativeMatcher(grid).match(thin, window, here + params.reseat_margin);
+  if (!best.found) return std::nullopt;
+  return best.pose;
+}
+
 }  // namespace
 
 RefinedPoses refineNodePoses(const std::vector<const Points2*>& scans, const std::vector<Pose2D>& poses,
@@ -31,6 +86,8 @@ RefinedPoses refineNodePoses(const std::vector<const Points2*>& scans, const std
   if (scans.size() != poses.size() || scans.size() < 2) return result;
   IcpSchedule schedule{params.max_correspondence, params.min_correspondence, params.max_iterations, 1};
   const size_t wanted = static_cast<size_t>(std::max(0, params.correspondence_points));
+  const std::vector<float> reach = params.reseat_xy > 0 ? reaches(scans) : std::vector<float>{};
+  std::set<size_t> reseated;
   for (int round = 0; round < params.rounds; ++round) {
     // One snapshot per round: a node aligned early in the round does not drag the later ones.
     std::vector<size_t> first;
@@ -40,15 +97,24 @@ RefinedPoses refineNodePoses(const std::vector<const Points2*>& scans, const std
     result.moved = 0;
     for (size_t k = 1; k < scans.size(); ++k) {
       if (scans[k]->empty()) continue;
+      const SkipRange own{first[k], first[k + 1]};
+      const auto paired = [&](const IcpResult& fit) { return fit.paired && fit.goodness >= params.min_goodness; };
       // As the tracker's ICP does (scan_matcher.cpp): dense scans take turns, a share per iteration.
       schedule.decimation = wanted > 0 ? std::max<size_t>(1, (scans[k]->size() + wanted - 1) / wanted) : 1;
-      const IcpResult fit = icp.align(*scans[k], result.poses[k], schedule, SkipRange{first[k], first[k + 1]});
-      if (!fit.paired || !(fit.goodness >= params.min_goodness)) continue;
+      IcpResult fit = icp.align(*scans[k], result.poses[k], schedule, own);
+      if (!paired(fit) && params.reseat_xy > 0) {
+        const auto seat = reseat(scans, result.poses, reach, k, params);
+        if (!seat) continue;
+        fit = icp.align(*scans[k], *seat, schedule, own);
+        if (paired(fit)) reseated.insert(k);
+      }
+      if (!paired(fit)) continue;
       next[k] = fit.pose;
       ++result.moved;
     }
     result.poses = std::move(next);
   }
+  result.reseated = reseated.size();
   return result;
 }
 

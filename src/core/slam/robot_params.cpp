@@ -145,6 +145,9 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"graph_refine_rounds", &graph.refine_rounds},
       {"graph_refine_max_correspondence", &graph.refine_max_correspondence},
       {"graph_refine_min_goodness", &graph.refine_min_goodness},
+      {"graph_refine_reseat_xy", &graph.refine_reseat_xy},
+      {"graph_refine_reseat_yaw", &graph.refine_reseat_yaw},
+      {"graph_refine_reseat_margin", &graph.refine_reseat_margin},
   };
 }
 
@@ -200,6 +203,9 @@ const Limit kLimits[] = {
     {"graph_refine_rounds", 100.0, true},
     {"graph_refine_max_correspondence", 100.0, false},
     {"graph_refine_min_goodness", 1.0, true},
+    {"graph_refine_reseat_xy", 10.0, true},
+    {"graph_refine_reseat_yaw", 3.15, true},
+    {"graph_refine_reseat_margin", 1.0, true},
     {"seed_overrule_min_points", 100000.0, true},
     {"imu_check_turns", 1000.0, true},
     {"imu_check_min_turn", 3.15, true},
