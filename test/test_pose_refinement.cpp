@@ -29,10 +29,10 @@ Nodes every5th(const RobotLog& log, int count) {
   return nodes;
 }
 
-RefinedPoses refine(const Nodes& nodes, const std::vector<Pose2D>& poses, bool search) {
+RefinedPoses refine(const Nodes& nodes, const std::vector<Pose2D>& poses, bool search,
+                    NodeRefinementParams params = {}) {
   std::vector<const Points2*> scans;
   for (const auto& scan : nodes.scans) scans.push_back(&scan);
-  NodeRefinementParams params;
   if (!search) params.reseat_xy = 0;
   return refineNodePoses(scans, poses, params);
 }
@@ -63,6 +63,26 @@ TEST(NodeRefinement, SearchesForANodeTurnedBeyondIcpsReach) {
     EXPECT_GE(with.reseated, 1u) << "node " << c.node;
     EXPECT_EQ(without.reseated, 0u);
   }
+}
+
+// A scan of a few returns fits a cluttered place somewhere wrong as well as anywhere: it is not
+// searched for (as it may not overrule the odometry in the tracker). With a 4 m laser, two such
+// nodes of Freiburg 101 were moved and the error between consecutive scans rose from 0.075 to
+// 0.122 m (0.080 with the rule). Here node 3 of the first test, its scan thinned to 40 points.
+TEST(NodeRefinement, DoesNotSearchForAScanOfAFewReturns) {
+  Nodes nodes = every5th(test::intelLog(), 120);
+  Points2 few;
+  const Points2& all = nodes.scans[3];
+  for (size_t i = 0; i < 40; ++i) few.push_back(all[i * all.size() / 40]);
+  nodes.scans[3] = few;
+  std::vector<Pose2D> poses = nodes.poses;
+  poses[3] = poses[3].compose(Pose2D{0.1, -0.1, 0.28});
+  NodeRefinementParams any;
+  any.reseat_min_points = 0;
+  const double left = std::abs(Pose2D::normalizeAngle(refine(nodes, poses, true).poses[3].yaw - nodes.poses[3].yaw));
+  const double searched = std::abs(Pose2D::normalizeAngle(refine(nodes, poses, true, any).poses[3].yaw - nodes.poses[3].yaw));
+  EXPECT_GT(left, 0.2) << "the node stays where it was put";
+  EXPECT_LT(searched, 0.05) << "the test must see the rule at work";
 }
 
 // Where the reference poses agree with each other (ACES and both Freiburg logs every 5th), the

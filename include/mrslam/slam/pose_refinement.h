@@ -40,6 +40,9 @@ struct NodeRefinementParams {
   double reseat_margin = 0.1;
   double grid_resolution = 0.05;    // m, of that likelihood grid
   double grid_sigma = 0.05;         // m, its kernel
+  // A scan with fewer points on that grid is not searched for: a few returns fit a cluttered
+  // place somewhere wrong as well as anywhere (the tracker's seed_overrule_min_points).
+  int reseat_min_points = 50;
 };
 
 struct RefinedPoses {

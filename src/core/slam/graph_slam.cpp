@@ -260,6 +260,7 @@ void GraphSlam::refineNodes() {
   refinement.reseat_margin = params_.graph.refine_reseat_margin;
   refinement.grid_resolution = params_.seed.resolution;
   refinement.grid_sigma = params_.seed.sigma;
+  refinement.reseat_min_points = params_.seed.overrule_min_points;
   if (refinement.rounds < 1 || nodes_.size() < 2) return;
   std::vector<const Points2*> scans;
   scans.reserve(nodes_.size());

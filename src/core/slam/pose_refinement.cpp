@@ -63,6 +63,7 @@ Points2 pointsAround(const std::vector<const Points2*>& scans, const std::vector
 std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std::vector<Pose2D>& poses,
                              const std::vector<float>& reach, size_t k, const NodeRefinementParams& params) {
   const Points2 thin = thinPoints(*scans[k], params.grid_resolution);
+  if (thin.size() < static_cast<size_t>(std::max(0, params.reseat_min_points))) return std::nullopt;
   // The grid reaches past the window by the kernel's own reach (likelihood_grid.h: 3 sigma).
   const double margin = params.reseat_xy + 3 * params.grid_sigma;
   const Points2 around = pointsAround(scans, poses, reach, k, transformPoints(thin, poses[k]), margin);
