@@ -38,7 +38,7 @@ RefinedPoses refine(const Nodes& nodes, const std::vector<Pose2D>& poses, bool s
 }
 
 // Intel every 5th scan, phase 0: the tracker turned node 3 by 16 degrees, where ICP from 0.2 m
-// cannot pair its walls. Nodes turned 8-16 degrees and moved up to 0.3 m, one at a time, end
+// cannot pair its walls. Nodes turned 9-17 degrees and moved up to 0.3 m, one at a time, end
 // where the refinement puts them from their reference poses; without the search they stay off.
 TEST(NodeRefinement, SearchesForANodeTurnedBeyondIcpsReach) {
   const Nodes nodes = every5th(test::intelLog(), 120);
@@ -54,7 +54,8 @@ TEST(NodeRefinement, SearchesForANodeTurnedBeyondIcpsReach) {
     const RefinedPoses without = refine(nodes, poses, false);
     const Pose2D left = from_reference[c.node].inverse().compose(with.poses[c.node]);
     const Pose2D stayed = from_reference[c.node].inverse().compose(without.poses[c.node]);
-    std::printf("Intel every 5th, node %zu turned %.0f degrees: %.3f m / %.2f degrees off with the search, %.3f m / %.2f without\n",
+    std::printf("Intel every 5th, node %zu turned %.0f degrees: %.3f m / %.2f degrees off with the search, "
+                "%.3f m / %.2f without\n",
                 c.node, c.off.yaw * 180 / M_PI, std::hypot(left.x, left.y), left.yaw * 180 / M_PI,
                 std::hypot(stayed.x, stayed.y), stayed.yaw * 180 / M_PI);
     EXPECT_LT(std::hypot(left.x, left.y), 0.03) << "node " << c.node;
@@ -79,8 +80,10 @@ TEST(NodeRefinement, DoesNotSearchForAScanOfAFewReturns) {
   poses[3] = poses[3].compose(Pose2D{0.1, -0.1, 0.28});
   NodeRefinementParams any;
   any.reseat_min_points = 0;
-  const double left = std::abs(Pose2D::normalizeAngle(refine(nodes, poses, true).poses[3].yaw - nodes.poses[3].yaw));
-  const double searched = std::abs(Pose2D::normalizeAngle(refine(nodes, poses, true, any).poses[3].yaw - nodes.poses[3].yaw));
+  const auto turned = [&](const RefinedPoses& refined) {
+    return std::abs(Pose2D::normalizeAngle(refined.poses[3].yaw - nodes.poses[3].yaw));
+  };
+  const double left = turned(refine(nodes, poses, true)), searched = turned(refine(nodes, poses, true, any));
   EXPECT_GT(left, 0.2) << "the node stays where it was put";
   EXPECT_LT(searched, 0.05) << "the test must see the rule at work";
 }

@@ -16,7 +16,6 @@
 
 #include "mrslam/grid.h"
 #include "mrslam/slam/likelihood_grid.h"
-#include "mrslam/slam/point_icp.h"
 
 namespace mrslam::slam {
 

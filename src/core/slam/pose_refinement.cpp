@@ -7,6 +7,7 @@
 #include <set>
 
 #include "mrslam/slam/correlative_matcher.h"
+#include "mrslam/slam/point_icp.h"
 
 namespace mrslam::slam {
 namespace {
