@@ -67,10 +67,11 @@ std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std
   if (thin.size() < static_cast<size_t>(std::max(0, params.reseat_min_points))) return std::nullopt;
   // The grid reaches past the window by the kernel's own reach (likelihood_grid.h: 3 sigma).
   const double margin = params.reseat_xy + 3 * params.grid_sigma;
-  const Points2 around = pointsAround(scans, poses, reach, k, transformPoints(thin, poses[k]), margin);
+  const Points2 placed = transformPoints(thin, poses[k]);
+  const Points2 around = pointsAround(scans, poses, reach, k, placed, margin);
   if (around.empty()) return std::nullopt;
   auto grid = std::make_shared<const LikelihoodGrid>(around, params.grid_resolution, params.grid_sigma, margin);
-  const double here = grid->score(transformPoints(thin, poses[k]));
+  const double here = grid->score(placed);
   SearchWindow window;
   window.center = poses[k];
   window.xy = params.reseat_xy;
