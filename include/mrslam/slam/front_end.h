@@ -167,6 +167,11 @@ struct GraphParams {
   double refine_reseat_xy = 0.5;         // m: a node paired less is searched for this far either way...
   double refine_reseat_yaw = 0.35;       // rad: ...and this much turn (0 xy: off)...
   double refine_reseat_margin = 0.1;     // ...and aligned again from where it fits this much better
+  // Then, after each round, all nodes at once (joint_registration.h):
+  int refine_joint_solves = 2;           // this many times, paired again each time (0: off)
+  double refine_joint_reach = 0.2;       // m: a point pairs with another node's within this
+  double refine_joint_huber = 0.05;      // m: pairs farther apart count linearly
+  int refine_joint_points = 60;          // about this many of each node's points paired (0: all)
 };
 
 struct RobotSlamParams {

@@ -1,6 +1,7 @@
 // The final refinement of a pose graph's nodes, when a run ends (GraphSlam::finish()): every
 // node's scan is aligned by ICP to the scans of all the other nodes as the graph placed them,
-// all nodes against one snapshot per round, for a few rounds.
+// all nodes against one snapshot per round, then all nodes at once (joint_registration.h), for a
+// few rounds.
 //
 // Why: the tracker matched each scan to the scans before it only, and the optimised graph
 // places a node where its motion edges and the loop closures compromise; neither looks at the
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "mrslam/grid.h"
+#include "mrslam/slam/joint_registration.h"
 #include "mrslam/slam/likelihood_grid.h"
 
 namespace mrslam::slam {
@@ -42,6 +44,10 @@ struct NodeRefinementParams {
   // A scan with fewer points on that grid is not searched for: a few returns fit a cluttered
   // place somewhere wrong as well as anywhere (the tracker's seed_overrule_min_points).
   int reseat_min_points = 50;
+  // After each round, this many times: all nodes registered at once (joint_registration.h),
+  // each time paired again at the poses the last one left. 0: off.
+  int joint_solves = 2;
+  JointRegistrationParams joint;
 };
 
 struct RefinedPoses {

@@ -261,6 +261,11 @@ void GraphSlam::refineNodes() {
   refinement.grid_resolution = params_.seed.resolution;
   refinement.grid_sigma = params_.seed.sigma;
   refinement.reseat_min_points = params_.seed.overrule_min_points;
+  refinement.joint_solves = params_.graph.refine_joint_solves;
+  refinement.joint.reach = params_.graph.refine_joint_reach;
+  refinement.joint.huber = params_.graph.refine_joint_huber;
+  refinement.joint.points_per_node = params_.graph.refine_joint_points;
+  refinement.joint.min_goodness = params_.graph.refine_min_goodness;
   if (refinement.rounds < 1 || nodes_.size() < 2) return;
   std::vector<const Points2*> scans;
   scans.reserve(nodes_.size());

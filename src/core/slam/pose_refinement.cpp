@@ -7,6 +7,7 @@
 #include <set>
 
 #include "mrslam/slam/correlative_matcher.h"
+#include "mrslam/slam/joint_registration.h"
 #include "mrslam/slam/point_icp.h"
 
 namespace mrslam::slam {
@@ -81,41 +82,52 @@ std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std
   return best.pose;
 }
 
+// One round of aligning each node alone: every node against one snapshot of all the others, so
+// that a node aligned early in the round does not drag the later ones. Returns how many moved;
+// adds the nodes placed only after a correlative search to `reseated`.
+size_t alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>& poses, const std::vector<float>& reach,
+                     const NodeRefinementParams& params, std::set<size_t>& reseated) {
+  IcpSchedule schedule{params.max_correspondence, params.min_correspondence, params.max_iterations, 1};
+  const size_t wanted = static_cast<size_t>(std::max(0, params.correspondence_points));
+  std::vector<size_t> first;
+  PointIcp icp;
+  icp.setReference(placedPoints(scans, poses, first));
+  std::vector<Pose2D> next = poses;
+  size_t moved = 0;
+  for (size_t k = 1; k < scans.size(); ++k) {
+    if (scans[k]->empty()) continue;
+    const SkipRange own{first[k], first[k + 1]};
+    const auto paired = [&](const IcpResult& fit) { return fit.paired && fit.goodness >= params.min_goodness; };
+    // As the tracker's ICP does (scan_matcher.cpp): dense scans take turns, a share per iteration.
+    schedule.decimation = wanted > 0 ? std::max<size_t>(1, (scans[k]->size() + wanted - 1) / wanted) : 1;
+    IcpResult fit = icp.align(*scans[k], poses[k], schedule, own);
+    if (!paired(fit) && params.reseat_xy > 0) {
+      const auto seat = reseat(scans, poses, reach, k, params);
+      if (!seat) continue;
+      fit = icp.align(*scans[k], *seat, schedule, own);
+      if (paired(fit)) reseated.insert(k);
+    }
+    if (!paired(fit)) continue;
+    next[k] = fit.pose;
+    ++moved;
+  }
+  poses = std::move(next);
+  return moved;
+}
+
 }  // namespace
 
 RefinedPoses refineNodePoses(const std::vector<const Points2*>& scans, const std::vector<Pose2D>& poses,
                              const NodeRefinementParams& params) {
   RefinedPoses result{poses, 0};
   if (scans.size() != poses.size() || scans.size() < 2) return result;
-  IcpSchedule schedule{params.max_correspondence, params.min_correspondence, params.max_iterations, 1};
-  const size_t wanted = static_cast<size_t>(std::max(0, params.correspondence_points));
   const std::vector<float> reach = params.reseat_xy > 0 ? reaches(scans) : std::vector<float>{};
   std::set<size_t> reseated;
   for (int round = 0; round < params.rounds; ++round) {
-    // One snapshot per round: a node aligned early in the round does not drag the later ones.
-    std::vector<size_t> first;
-    PointIcp icp;
-    icp.setReference(placedPoints(scans, result.poses, first));
-    std::vector<Pose2D> next = result.poses;
-    result.moved = 0;
-    for (size_t k = 1; k < scans.size(); ++k) {
-      if (scans[k]->empty()) continue;
-      const SkipRange own{first[k], first[k + 1]};
-      const auto paired = [&](const IcpResult& fit) { return fit.paired && fit.goodness >= params.min_goodness; };
-      // As the tracker's ICP does (scan_matcher.cpp): dense scans take turns, a share per iteration.
-      schedule.decimation = wanted > 0 ? std::max<size_t>(1, (scans[k]->size() + wanted - 1) / wanted) : 1;
-      IcpResult fit = icp.align(*scans[k], result.poses[k], schedule, own);
-      if (!paired(fit) && params.reseat_xy > 0) {
-        const auto seat = reseat(scans, result.poses, reach, k, params);
-        if (!seat) continue;
-        fit = icp.align(*scans[k], *seat, schedule, own);
-        if (paired(fit)) reseated.insert(k);
-      }
-      if (!paired(fit)) continue;
-      next[k] = fit.pose;
-      ++result.moved;
-    }
-    result.poses = std::move(next);
+    result.moved = alignEachNode(scans, result.poses, reach, params, reseated);
+    // Then all nodes at once: an error spanning many nodes (a bend) holds each node where its
+    // neighbours are when they are aligned one by one, and moves as a whole jointly.
+    for (int solve = 0; solve < params.joint_solves; ++solve) registerJointly(scans, result.poses, params.joint);
   }
   result.reseated = reseated.size();
   return result;

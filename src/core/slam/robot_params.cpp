@@ -148,6 +148,10 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"graph_refine_reseat_xy", &graph.refine_reseat_xy},
       {"graph_refine_reseat_yaw", &graph.refine_reseat_yaw},
       {"graph_refine_reseat_margin", &graph.refine_reseat_margin},
+      {"graph_refine_joint_solves", &graph.refine_joint_solves},
+      {"graph_refine_joint_reach", &graph.refine_joint_reach},
+      {"graph_refine_joint_huber", &graph.refine_joint_huber},
+      {"graph_refine_joint_points", &graph.refine_joint_points},
   };
 }
 
@@ -206,6 +210,10 @@ const Limit kLimits[] = {
     {"graph_refine_reseat_xy", 10.0, true},
     {"graph_refine_reseat_yaw", 3.15, true},
     {"graph_refine_reseat_margin", 1.0, true},
+    {"graph_refine_joint_solves", 100.0, true},
+    {"graph_refine_joint_reach", 10.0, false},
+    {"graph_refine_joint_huber", 10.0, false},
+    {"graph_refine_joint_points", 100000.0, true},
     {"seed_overrule_min_points", 100000.0, true},
     {"imu_check_turns", 1000.0, true},
     {"imu_check_min_turn", 3.15, true},
