@@ -166,7 +166,8 @@ TEST(JointRegistration, HoldsTheOriginAndANodeThatPairsTooLittle) {
     EXPECT_EQ(moved[k].yaw, poses[k].yaw) << "node " << k;
   }
   size_t others_moved = 0;
-  for (size_t k = 1; k < poses.size(); ++k) others_moved += k != 12 && (moved[k].x != poses[k].x || moved[k].yaw != poses[k].yaw);
+  for (size_t k = 1; k < poses.size(); ++k)
+    others_moved += k != 12 && (moved[k].x != poses[k].x || moved[k].yaw != poses[k].yaw);
   EXPECT_GT(others_moved, poses.size() / 2);
 }
 

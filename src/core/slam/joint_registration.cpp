@@ -176,7 +176,8 @@ JointRegistration registerJointly(const std::vector<const Points2*>& scans, std:
   result.held = scans.size() - static_cast<size_t>(free_count);
   result.cost_before = result.cost_after = cost(pairing.pairs, poses, params.huber);
   if (free_count == 0 || pairing.pairs.empty()) return result;
-  const Eigen::VectorXd step = gaussNewtonStep(normalEquations(pairing.pairs, poses, variable, free_count, params.huber));
+  const Eigen::VectorXd step =
+      gaussNewtonStep(normalEquations(pairing.pairs, poses, variable, free_count, params.huber));
   if (step.size() == 0) return result;
   std::vector<Pose2D> moved = poses;
   for (size_t k = 0; k < scans.size(); ++k) {

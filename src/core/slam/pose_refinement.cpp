@@ -85,8 +85,9 @@ std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std
 // One round of aligning each node alone: every node against one snapshot of all the others, so
 // that a node aligned early in the round does not drag the later ones. Returns how many moved;
 // adds the nodes placed only after a correlative search to `reseated`.
-size_t alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>& poses, const std::vector<float>& reach,
-                     const NodeRefinementParams& params, std::set<size_t>& reseated) {
+size_t alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>& poses,
+                     const std::vector<float>& reach, const NodeRefinementParams& params,
+                     std::set<size_t>& reseated) {
   IcpSchedule schedule{params.max_correspondence, params.min_correspondence, params.max_iterations, 1};
   const size_t wanted = static_cast<size_t>(std::max(0, params.correspondence_points));
   std::vector<size_t> first;
