@@ -16,7 +16,8 @@
 // (121 000 pairs, 4764 unknowns, 62 500 pairs of nodes that pair) a pass over the long corridor
 // ties most nodes to most others, the factor fills in to nearly dense, and a step took 2.6 s
 // and 80 MB more peak memory with Eigen's simplicial LDLT, 0.5 s and 118 MB with Ceres. Conjugate
-// gradients take 0.1 s and solve as closely (the same poses to the millimetre).
+// gradients take 0.1 s; their trajectory of Intel every 5th scan lies within 2 cm of Ceres's and
+// scores the same global error (0.389 m).
 #pragma once
 
 #include <cstddef>
