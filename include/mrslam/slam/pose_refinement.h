@@ -52,7 +52,7 @@ struct NodeRefinementParams {
 
 struct RefinedPoses {
   std::vector<Pose2D> poses;
-  size_t moved = 0;     // nodes the last round aligned (the others kept their pose)
+  size_t moved = 0;     // nodes whose pose changed, in any round, alone or jointly
   size_t reseated = 0;  // of those, nodes any round aligned only after the correlative search
 };
 

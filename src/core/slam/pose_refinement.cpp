@@ -83,9 +83,9 @@ std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std
 }
 
 // One round of aligning each node alone: every node against one snapshot of all the others, so
-// that a node aligned early in the round does not drag the later ones. Returns how many moved;
-// adds the nodes placed only after a correlative search to `reseated`.
-size_t alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>& poses,
+// that a node aligned early in the round does not drag the later ones. Adds the nodes placed
+// only after a correlative search to `reseated`.
+void alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>& poses,
                      const std::vector<float>& reach, const NodeRefinementParams& params,
                      std::set<size_t>& reseated) {
   IcpSchedule schedule{params.max_correspondence, params.min_correspondence, params.max_iterations, 1};
@@ -94,7 +94,6 @@ size_t alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2
   PointIcp icp;
   icp.setReference(placedPoints(scans, poses, first));
   std::vector<Pose2D> next = poses;
-  size_t moved = 0;
   for (size_t k = 1; k < scans.size(); ++k) {
     if (scans[k]->empty()) continue;
     const SkipRange own{first[k], first[k + 1]};
@@ -110,10 +109,8 @@ size_t alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2
     }
     if (!paired(fit)) continue;
     next[k] = fit.pose;
-    ++moved;
   }
   poses = std::move(next);
-  return moved;
 }
 
 }  // namespace
@@ -125,12 +122,14 @@ RefinedPoses refineNodePoses(const std::vector<const Points2*>& scans, const std
   const std::vector<float> reach = params.reseat_xy > 0 ? reaches(scans) : std::vector<float>{};
   std::set<size_t> reseated;
   for (int round = 0; round < params.rounds; ++round) {
-    result.moved = alignEachNode(scans, result.poses, reach, params, reseated);
+    alignEachNode(scans, result.poses, reach, params, reseated);
     // Then all nodes at once: an error spanning many nodes (a bend) holds each node where its
     // neighbours are when they are aligned one by one, and moves as a whole jointly.
     for (int solve = 0; solve < params.joint_solves; ++solve) registerJointly(scans, result.poses, params.joint);
   }
   result.reseated = reseated.size();
+  for (size_t k = 0; k < poses.size(); ++k)
+    result.moved += result.poses[k].x != poses[k].x || result.poses[k].y != poses[k].y || result.poses[k].yaw != poses[k].yaw;
   return result;
 }
 
