@@ -654,6 +654,22 @@ TEST(FrontEndStats, RevisitsRarelyConfirmedSeparatesTheMeasuredLostAndHeldRuns) 
   EXPECT_FALSE(rarely(39, 0)) << "too few searches to say";
 }
 
+// The counts of real runs on either side of the often-doubted line (scans used, turns doubted),
+// all measured: Seattle every 5th, bent by a turn its odometry missed (6.7 m), and belgioioso
+// every 5th, held (0.77 m), both Radish logs not bundled; Intel every 5th, phase 0 (0.40 m).
+TEST(FrontEndStats, TurnsOftenDoubtedSeparatesTheMeasuredBentAndHeldRuns) {
+  auto often = [](size_t used, size_t doubted) {
+    slam::FrontEndStats s;
+    s.used = used;
+    s.odometry_turns_doubted = doubted;
+    return s.turnsOftenDoubted();
+  };
+  EXPECT_TRUE(often(49, 4)) << "Seattle every 5th";
+  EXPECT_FALSE(often(79, 2)) << "belgioioso every 5th";
+  EXPECT_FALSE(often(182, 4)) << "Intel every 5th, phase 0";
+  EXPECT_FALSE(often(19, 5)) << "too few scans to say";
+}
+
 // A slower scanner from a real log, every phase of the decimation; bad options refused.
 TEST(ConvertLogCli, WritesEveryPhaseOfADecimationAndLaterStartsAndRefusesBadOptions) {
   const std::string bin = MRSLAM_CONVERT_LOG_BIN;

@@ -544,6 +544,28 @@ TEST(GraphSlam, OdometryTheScansOftenOverruleIsReported) {
   EXPECT_TRUE(still.stats.odometryOftenOverruled());
 }
 
+// Odometry that misses the robot's sharpest turns (as Seattle's did on a turn of 80 degrees, read
+// as 0.6): where the scan fits too poorly to follow it, the run still says that the scans
+// doubted the odometry's heading (mrslam_slam_log's warning, the SLAM nodelet's diagnostics).
+// Intel every 5th scan, its odometry with every turn over 60 degrees between two scans taken
+// out (the distance driven kept).
+TEST(GraphSlam, TurnsTheOdometryMayHaveMissedAreReported) {
+  const RobotLog every5 = decimate(intelLog(), 5, 0);
+  RobotLog straight = every5;
+  size_t removed = 0;
+  for (size_t i = 1; i < straight.records.size(); ++i) {
+    const Pose2D turn = every5.records[i - 1].reference.inverse().compose(every5.records[i].reference);
+    if (std::abs(turn.yaw) > 60 * M_PI / 180) straight.records[i].odometry.yaw = 0, ++removed;
+  }
+  const GraphRun own = runGraph(every5, withoutGyro()), missed = runGraph(straight, withoutGyro());
+  std::printf("Intel every 5th scan: %zu turns taken out of the odometry; turns doubted %zu of %zu with its own "
+              "odometry, %zu of %zu without those turns (%zu overruled as missed)\n",
+              removed, own.stats.odometry_turns_doubted, own.stats.used, missed.stats.odometry_turns_doubted,
+              missed.stats.used, missed.stats.odometry_missed_turns);
+  EXPECT_FALSE(own.stats.turnsOftenDoubted());
+  EXPECT_TRUE(missed.stats.turnsOftenDoubted());
+}
+
 // Judging by the run's strides still finds a real odometry jump without time: Intel every 3rd
 // scan (0.7-5 m a stride), its odometry reset by 20 m and 90 degrees at scan 150 while the robot
 // drove on as usual. Measured: 0.18 m clean, 0.23 m with the jump (0.049 m apart; 0.050 since

@@ -579,6 +579,11 @@ class SlamNodelet : public nodelet::Nodelet {
                                                                   std::to_string(s.odometryOverruled()) + " of " +
                                                                   std::to_string(s.used) + " scans: is " + odom_frame_ +
                                                                   " this robot's wheel odometry?");
+    else if (s.turnsOftenDoubted())
+      status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "the scans doubted the odometry's heading on " +
+                                                                  std::to_string(s.odometry_turns_doubted) + " of " +
+                                                                  std::to_string(s.used) +
+                                                                  " scans: it may have missed turns (a bent map?)");
     else status.summary(diagnostic_msgs::DiagnosticStatus::OK, "tracking");
     status.add("front end", robot_ ? robot_->name() : std::string("none yet"));
     status.add("motion from", use_odometry_ ? "odometry (" + odom_frame_ + " -> " + base_frame_ + ") and the scans"
@@ -591,6 +596,7 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("odometry slips", s.odometry_slips);
     status.add("odometry increments driven backwards", s.odometry_reversals);
     status.add("turns the odometry missed", s.odometry_missed_turns);
+    status.add("turns the odometry may have missed (not followed)", s.odometry_turns_doubted);
     status.add("scans placed by the correlative search alone", s.seeds_alone);
     status.add("correlative searches given up", s.searches_given_up);
     status.add("graph nodes", s.nodes);

@@ -163,7 +163,8 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   out << ", " << s.matched << " matched, " << s.rejected << " rejected";
   if (!s.last_problem.empty() && s.rejected) out << " (last: " << s.last_problem << ")";
   out << "; odometry doubted " << s.odometry_doubted << ", jumps " << s.odometry_jumps << ", slips " << s.odometry_slips
-      << ", driven backwards " << s.odometry_reversals << ", turns it missed " << s.odometry_missed_turns << "; "
+      << ", driven backwards " << s.odometry_reversals << ", turns it missed " << s.odometry_missed_turns
+      << " (and " << s.odometry_turns_doubted << " doubted); "
       << s.seeds_alone << " placed by the correlative search alone";
   if (s.searches_given_up)
     out << "; " << s.searches_given_up << " correlative searches given up (the map scores alike everywhere: a lost track?)";
@@ -192,6 +193,10 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
     std::cerr << "mrslam_slam_log: WARNING: the scans overruled the odometry on " << s.odometryOverruled() << " of "
               << s.used << " scans (slipped, jumped or missed a turn): the log's odometry does not tell this robot's"
               << " motion, or the track is lost; check the map\n";
+  if (s.turnsOftenDoubted())
+    std::cerr << "mrslam_slam_log: WARNING: on " << s.odometry_turns_doubted << " of " << s.used
+              << " scans the scan fitted clearly better turned far from the odometry's heading, too poorly to"
+              << " follow it: the odometry may have missed turns there and the map be bent; check the map\n";
   if (s.optimization_failures)
     std::cerr << "mrslam_slam_log: WARNING: " << s.optimization_failures << " pose-graph optimisation(s) failed: "
               << s.last_problem << "\n";

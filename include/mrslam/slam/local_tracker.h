@@ -64,8 +64,11 @@ class LocalTracker {
   // The prior of a seed for the increment `u` driven from `before`.
   SeedPrior seedPrior(const Pose2D& before, const Pose2D& u) const;
   // The scan searched for at every heading within `max_xy` of `guess`, taken only where it fits
-  // well and well ahead of any other pose (seed.missed_turn_*).
-  std::optional<CorrelativeMatch> missedTurn(const Points2& points, const Pose2D& guess, double max_xy, const SeedPrior& prior);
+  // well and well ahead of any other pose (seed.missed_turn_*). `doubted` says whether it fitted
+  // clearly better than at `guess` (where it fits `guess_fit`) at a heading far from it, and was
+  // not taken.
+  std::optional<CorrelativeMatch> missedTurn(const Points2& points, const Pose2D& guess, double max_xy, const SeedPrior& prior,
+                                             double guess_fit, bool& doubted);
   // Whether ICP, weak on its own, landed where the seed put the scan.
   bool seedConfirms(const ScanStep& step) const;
   // Whether a seed ICP did not confirm still scored clearly above the prediction.

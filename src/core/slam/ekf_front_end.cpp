@@ -28,6 +28,7 @@ void countStep(const ScanStep& step, FrontEndStats& stats) {
   stats.odometry_slips += step.odometry_slipped;
   stats.odometry_reversals += step.odometry_reversed;
   stats.odometry_missed_turns += step.odometry_missed_turn;
+  stats.odometry_turns_doubted += step.odometry_turn_doubted;
   stats.seeds_alone += step.seed_alone;
   stats.searches_given_up += step.searches_given_up;
   stats.gyro_set_aside += step.gyro_set_aside;
