@@ -658,16 +658,20 @@ TEST(FrontEndStats, RevisitsRarelyConfirmedSeparatesTheMeasuredLostAndHeldRuns) 
 // all measured: Seattle every 5th, bent by a turn its odometry missed (6.7 m), and belgioioso
 // every 5th, held (0.77 m), both Radish logs not bundled; Intel every 5th, phase 0 (0.40 m).
 TEST(FrontEndStats, TurnsOftenDoubtedSeparatesTheMeasuredBentAndHeldRuns) {
-  auto often = [](size_t used, size_t doubted) {
+  const struct {
+    size_t used, doubted;
+    bool often;
+    const char* run;
+  } runs[] = {{49, 4, true, "Seattle every 5th"},
+              {79, 2, false, "belgioioso every 5th"},
+              {182, 4, false, "Intel every 5th, phase 0"},
+              {19, 5, false, "too few scans to say"}};
+  for (const auto& r : runs) {
     slam::FrontEndStats s;
-    s.used = used;
-    s.odometry_turns_doubted = doubted;
-    return s.turnsOftenDoubted();
-  };
-  EXPECT_TRUE(often(49, 4)) << "Seattle every 5th";
-  EXPECT_FALSE(often(79, 2)) << "belgioioso every 5th";
-  EXPECT_FALSE(often(182, 4)) << "Intel every 5th, phase 0";
-  EXPECT_FALSE(often(19, 5)) << "too few scans to say";
+    s.used = r.used;
+    s.odometry_turns_doubted = r.doubted;
+    EXPECT_EQ(s.turnsOftenDoubted(), r.often) << r.run;
+  }
 }
 
 // A slower scanner from a real log, every phase of the decimation; bad options refused.
