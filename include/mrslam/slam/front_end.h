@@ -277,7 +277,7 @@ struct FrontEndStats {
     return used >= kMinSteps && static_cast<double>(odometryOverruled()) > kOftenShare * static_cast<double>(used);
   }
   // Whether the scans doubted the odometry's heading on so many steps that it may have missed
-  // turns the tracker followed (ScanStep::odometry_turn_doubted): on 5 % of them. Measured over
+  // turns the tracker could not follow (ScanStep::odometry_turn_doubted): on 5 % of them. Measured over
   // 123 runs (the bundled logs whole, from other starts and at every 3rd to 6th scan; nine
   // Radish logs whole and at every 3rd and 5th; 24 of them with the laser cut to 4-5.6 m): runs
   // that held their maps doubted at most 2.5 % of their steps (belgioioso every 5th, 2 of 79),

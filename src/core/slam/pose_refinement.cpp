@@ -86,8 +86,8 @@ std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std
 // that a node aligned early in the round does not drag the later ones. Adds the nodes placed
 // only after a correlative search to `reseated`.
 void alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>& poses,
-                     const std::vector<float>& reach, const NodeRefinementParams& params,
-                     std::set<size_t>& reseated) {
+                   const std::vector<float>& reach, const NodeRefinementParams& params,
+                   std::set<size_t>& reseated) {
   IcpSchedule schedule{params.max_correspondence, params.min_correspondence, params.max_iterations, 1};
   const size_t wanted = static_cast<size_t>(std::max(0, params.correspondence_points));
   std::vector<size_t> first;
