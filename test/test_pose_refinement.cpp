@@ -11,6 +11,7 @@
 #include "mrslam/slam/joint_registration.h"
 #include "mrslam/slam/laser_scan.h"
 #include "mrslam/slam/pose_refinement.h"
+#include "mrslam/slam/stretch_reanchor.h"
 #include "test_logs.h"
 
 namespace mrslam::slam {
@@ -169,6 +170,46 @@ TEST(JointRegistration, HoldsTheOriginAndANodeThatPairsTooLittle) {
   for (size_t k = 1; k < poses.size(); ++k)
     others_moved += k != 12 && (moved[k].x != poses[k].x || moved[k].yaw != poses[k].yaw);
   EXPECT_GT(others_moved, poses.size() / 2);
+}
+
+// A turn the odometry missed turns every node before it against the rest (Seattle every 5th
+// scan: its first six nodes 77 degrees off). Intel every 5th scan at its reference poses, its
+// first `split` nodes turned 80 degrees (either way) about the last of them: the stretch is put
+// back to within a few centimetres and a fraction of a degree.
+TEST(StretchReanchor, PutsBackAStretchTurnedByAMissedTurn) {
+  const Nodes nodes = every5th(test::intelLog(), 120);
+  std::vector<const Points2*> scans;
+  for (const auto& scan : nodes.scans) scans.push_back(&scan);
+  for (const size_t split : {size_t{6}, size_t{30}}) {
+    for (const double turn : {1.4, -1.4}) {
+      std::vector<Pose2D> poses = nodes.poses;
+      const Pose2D pivot = poses[split - 1];
+      const Pose2D bend = pivot.compose(Pose2D{0, 0, turn}).compose(pivot.inverse());
+      for (size_t k = 0; k < split; ++k) poses[k] = bend.compose(poses[k]);
+      const auto back = reanchorStretch(scans, poses, split, StretchReanchorParams{});
+      ASSERT_TRUE(back) << "split " << split << ", turned " << turn;
+      // Where the later stretch now lies against the earlier one, against the reference.
+      const Pose2D across = poses[split - 1].inverse().compose(back->compose(poses[split]));
+      const Pose2D truth = nodes.poses[split - 1].inverse().compose(nodes.poses[split]);
+      const Pose2D off = truth.inverse().compose(across);
+      std::printf("Intel every 5th, first %zu nodes turned %.1f rad: put back to %.3f m / %.2f degrees\n", split, turn,
+                  std::hypot(off.x, off.y), off.yaw * 180 / M_PI);
+      EXPECT_LT(std::hypot(off.x, off.y), 0.15);
+      EXPECT_LT(std::abs(off.yaw), 0.02);
+    }
+  }
+}
+
+// Nothing is moved where the stretches already agree: every split of Intel every 5th at its
+// reference poses.
+TEST(StretchReanchor, LeavesAStraightMapAlone) {
+  const Nodes nodes = every5th(test::intelLog(), 120);
+  std::vector<const Points2*> scans;
+  for (const auto& scan : nodes.scans) scans.push_back(&scan);
+  size_t moved = 0;
+  for (size_t split = 1; split < nodes.poses.size(); split += 7)
+    moved += reanchorStretch(scans, nodes.poses, split, StretchReanchorParams{}).has_value();
+  EXPECT_EQ(moved, 0u);
 }
 
 }  // namespace

@@ -148,7 +148,8 @@ class SlamNodelet : public nodelet::Nodelet {
     response.success = true;
     response.message = "run finished: " + std::to_string(stats.nodes_refined) + " of " + std::to_string(stats.nodes) +
                        " nodes refined (" + std::to_string(stats.nodes_reseated) +
-                       " after a correlative search); the map and trajectory follow within 1/map_publish_rate s";
+                       " after a correlative search; " + std::to_string(stats.stretches_reanchored) +
+                       " stretches turned back); the map and trajectory follow within 1/map_publish_rate s";
     return true;
   }
 

@@ -172,6 +172,10 @@ struct GraphParams {
   double refine_joint_reach = 0.2;       // m: a point pairs with another node's within this
   double refine_joint_huber = 0.05;      // m: pairs farther apart count linearly
   int refine_joint_points = 60;          // about this many of each node's points paired (0: all)
+  // Before that, a stretch turned by a turn the odometry may have missed (stretch_reanchor.h):
+  int reanchor_max_nodes = 60;           // the smaller side of such a step at most this many nodes (0: off)
+  double reanchor_min_turn = 0.785;      // rad: it moves only turned at least this much...
+  double reanchor_min_gain = 2.5;        // ...fitting the other side this many times better
 };
 
 struct RobotSlamParams {
@@ -255,6 +259,7 @@ struct FrontEndStats {
   size_t nodes = 0, submaps = 0, submaps_redrawn = 0;
   size_t nodes_refined = 0;  // aligned to the other nodes' scans when the run ended
   size_t nodes_reseated = 0; // of those, aligned only after a correlative search (pose_refinement.h)
+  size_t stretches_reanchored = 0;  // turned back at the end (stretch_reanchor.h)
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum
   size_t loop_pending = 0, loop_unconfirmed = 0;  // held for confirmation; expired unconfirmed
   size_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_rejected_icp = 0;

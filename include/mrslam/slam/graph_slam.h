@@ -131,6 +131,9 @@ class GraphSlam : public FrontEnd {
   PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
   // Optimises; drops closures the optimum disagrees with. True when the poses moved.
   bool optimize();
+  // When the run ends: a stretch turned against the rest by a turn the odometry may have missed
+  // (doubted_splits_) put back, if the scans clearly say where (stretch_reanchor.h).
+  void reanchorStretches();
   // When the run ends: each node's scan aligned to all the others' (pose_refinement.h).
   void refineNodes();
 
@@ -144,6 +147,7 @@ class GraphSlam : public FrontEnd {
   std::vector<std::unique_ptr<Submap>> submaps_;
   std::vector<ScanRef> scans_;
   std::vector<Closure> pending_;  // closures waiting for a consistent partner
+  std::vector<int> doubted_splits_;  // first nodes after steps whose turn the scans doubted
   double travel_ = 0;
   bool weak_since_node_ = false;  // a scan since the last node was matched poorly or not at all
   int unoptimized_closures_ = 0, nodes_since_optimization_ = 0;

@@ -5,6 +5,7 @@
 
 #include "mrslam/slam/ekf_front_end.h"
 #include "mrslam/slam/pose_refinement.h"
+#include "mrslam/slam/stretch_reanchor.h"
 
 namespace mrslam::slam {
 
@@ -30,6 +31,7 @@ void GraphSlam::reset() {
   travel_ = 0;
   weak_since_node_ = false;
   pending_.clear();
+  doubted_splits_.clear();
   unoptimized_closures_ = nodes_since_optimization_ = 0;
   last_tracker_pose_ = Pose2D{};
   stats_ = FrontEndStats{};
@@ -59,6 +61,9 @@ ScanStep GraphSlam::processScan(const LaserScan& scan) {
   if (isNewNode(tracker_pose) || activeSubmap().finished()) addNode(scan, tracker_pose, weak_since_node_, weak, step);
   else weak_since_node_ = weak_since_node_ || weak;
   const int node = static_cast<int>(nodes_.size()) - 1;
+  // The turn the odometry may have missed lies before this node if the scan became one, else
+  // before the next.
+  if (step.odometry_turn_doubted) doubted_splits_.push_back(step.new_node ? node : node + 1);
   const Pose2D offset = nodes_.back().tracker_pose.inverse().compose(tracker_pose);
   Submap& submap = activeSubmap();
   submap.insert(scan, node, offset, trackedInAnchor(submap, node), optimizedInAnchor(submap, node));
@@ -245,7 +250,41 @@ void GraphSlam::finish() {
   // map (Freiburg campus: 36 MB), and of the refinement. A scan that does come builds them again.
   closer_.releaseCache();
   tracker_.releaseSearchGrids();
+  reanchorStretches();
   refineNodes();
+}
+
+void GraphSlam::reanchorStretches() {
+  if (params_.graph.reanchor_max_nodes < 1) return;
+  StretchReanchorParams reanchor;
+  reanchor.max_nodes = static_cast<size_t>(params_.graph.reanchor_max_nodes);
+  reanchor.min_turn = params_.graph.reanchor_min_turn;
+  reanchor.min_gain = params_.graph.reanchor_min_gain;
+  std::vector<const Points2*> scans;
+  for (const Node& node : nodes_) scans.push_back(&node.points);
+  const auto n = static_cast<int>(nodes_.size());
+  bool moved = false;
+  for (const int split : doubted_splits_) {
+    if (split < 1 || split >= n) continue;
+    // A closure between the stretches already holds them together where the graph has them.
+    const bool tied = std::any_of(edges_.begin(), edges_.end(), [split](const PoseGraphEdge& e) {
+      return e.loop_closure && std::min(e.from, e.to) < split && std::max(e.from, e.to) >= split;
+    });
+    if (tied) continue;
+    const auto turn = reanchorStretch(scans, poses_, static_cast<size_t>(split), reanchor);
+    if (!turn) continue;
+    for (int k = split; k < n; ++k) poses_[k] = turn->compose(poses_[k]);
+    // The tracker's motion across the split becomes what the scans say, so that a later
+    // optimisation keeps the stretches where they now are.
+    for (PoseGraphEdge& e : edges_)
+      if (!e.loop_closure && e.from < split && e.to >= split) e.measurement = poses_[e.from].inverse().compose(poses_[e.to]);
+    ++stats_.stretches_reanchored;
+    moved = true;
+  }
+  doubted_splits_.clear();
+  if (!moved) return;
+  followOptimizedPoses();
+  ++map_version_;
 }
 
 void GraphSlam::refineNodes() {

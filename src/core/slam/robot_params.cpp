@@ -152,6 +152,9 @@ std::vector<NamedParam> robotSlamParams(RobotSlamParams& p) {
       {"graph_refine_joint_reach", &graph.refine_joint_reach},
       {"graph_refine_joint_huber", &graph.refine_joint_huber},
       {"graph_refine_joint_points", &graph.refine_joint_points},
+      {"graph_refine_reanchor_max_nodes", &graph.reanchor_max_nodes},
+      {"graph_refine_reanchor_min_turn", &graph.reanchor_min_turn},
+      {"graph_refine_reanchor_min_gain", &graph.reanchor_min_gain},
   };
 }
 
@@ -214,6 +217,9 @@ const Limit kLimits[] = {
     {"graph_refine_joint_reach", 10.0, false},
     {"graph_refine_joint_huber", 10.0, false},
     {"graph_refine_joint_points", 100000.0, true},
+    {"graph_refine_reanchor_max_nodes", 100000.0, true},
+    {"graph_refine_reanchor_min_turn", 3.15, true},
+    {"graph_refine_reanchor_min_gain", 1000.0, false},
     {"seed_overrule_min_points", 100000.0, true},
     {"imu_check_turns", 1000.0, true},
     {"imu_check_min_turn", 3.15, true},
