@@ -131,6 +131,8 @@ class GraphSlam : public FrontEnd {
   PoseGraphEdge loopEdge(int from, int to, const Pose2D& measurement) const;
   // Optimises; drops closures the optimum disagrees with. True when the poses moved.
   bool optimize();
+  // Every node's points (Node::points), in node order: what the end-of-run steps align.
+  std::vector<const Points2*> nodeScans() const;
   // When the run ends: a stretch turned against the rest by a turn the odometry may have missed
   // (doubted_splits_) put back, if the scans clearly say where (stretch_reanchor.h).
   void reanchorStretches();

@@ -63,7 +63,9 @@ ScanStep GraphSlam::processScan(const LaserScan& scan) {
   const int node = static_cast<int>(nodes_.size()) - 1;
   // The turn the odometry may have missed lies before this node if the scan became one, else
   // before the next.
-  if (step.odometry_turn_doubted) doubted_splits_.push_back(step.new_node ? node : node + 1);
+  const int split = step.new_node ? node : node + 1;
+  if (step.odometry_turn_doubted && (doubted_splits_.empty() || doubted_splits_.back() != split))
+    doubted_splits_.push_back(split);
   const Pose2D offset = nodes_.back().tracker_pose.inverse().compose(tracker_pose);
   Submap& submap = activeSubmap();
   submap.insert(scan, node, offset, trackedInAnchor(submap, node), optimizedInAnchor(submap, node));
@@ -254,14 +256,20 @@ void GraphSlam::finish() {
   refineNodes();
 }
 
+std::vector<const Points2*> GraphSlam::nodeScans() const {
+  std::vector<const Points2*> scans;
+  scans.reserve(nodes_.size());
+  for (const Node& node : nodes_) scans.push_back(&node.points);
+  return scans;
+}
+
 void GraphSlam::reanchorStretches() {
   if (params_.graph.reanchor_max_nodes < 1) return;
   StretchReanchorParams reanchor;
   reanchor.max_nodes = static_cast<size_t>(params_.graph.reanchor_max_nodes);
   reanchor.min_turn = params_.graph.reanchor_min_turn;
   reanchor.min_gain = params_.graph.reanchor_min_gain;
-  std::vector<const Points2*> scans;
-  for (const Node& node : nodes_) scans.push_back(&node.points);
+  const std::vector<const Points2*> scans = nodeScans();
   const auto n = static_cast<int>(nodes_.size());
   bool moved = false;
   for (const int split : doubted_splits_) {
@@ -306,10 +314,7 @@ void GraphSlam::refineNodes() {
   refinement.joint.points_per_node = params_.graph.refine_joint_points;
   refinement.joint.min_goodness = params_.graph.refine_min_goodness;
   if (refinement.rounds < 1 || nodes_.size() < 2) return;
-  std::vector<const Points2*> scans;
-  scans.reserve(nodes_.size());
-  for (const Node& node : nodes_) scans.push_back(&node.points);
-  RefinedPoses refined = refineNodePoses(scans, poses_, refinement);
+  RefinedPoses refined = refineNodePoses(nodeScans(), poses_, refinement);
   // The poses leave the graph's optimum: a scan that comes after this continues from them, and
   // the next optimisation starts from them and returns to the graph's optimum.
   poses_ = std::move(refined.poses);
