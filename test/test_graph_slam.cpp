@@ -795,8 +795,10 @@ TEST(GraphSlam, TheLastSubmapIsSearchedWhenTheRunEnds) {
 // When a run ends, each node's scan is aligned to all the other nodes' scans (pose_refinement.h):
 // the tracker saw only the scans before each one. Freiburg 101 every 5th scan, every phase (a
 // slow scanner: 3.4 m between scans on average, where each node keeps most of its own error).
+// Measured: 0.127-0.162 m unrefined, 0.086-0.105 m refined (0.094 on average; 0.105 when the
+// joint registration's pairs counted point to point, not across their partner's wall).
 TEST(GraphSlam, TheFinalRefinementTightensEveryPhaseOfASlowScanRate) {
-  double gain = 0;  // m, summed over the phases
+  double gain = 0, refined = 0;  // m, summed over the phases
   for (int phase = 0; phase < 5; ++phase) {
     const RobotLog every5 = decimate(freiburg101Log(), 5, phase);
     std::vector<Pose2D> reference;
@@ -826,8 +828,10 @@ TEST(GraphSlam, TheFinalRefinementTightensEveryPhaseOfASlowScanRate) {
     std::printf("Freiburg 101 every 5th, phase %d: global error %.3f m unrefined, %.3f m refined\n", phase, error[0], error[1]);
     EXPECT_LT(error[1], error[0] + 0.005) << "phase " << phase << ": the refinement made the map worse";
     gain += error[0] - error[1];
+    refined += error[1];
   }
   EXPECT_GT(gain / 5, 0.01) << "the refinement moved little";
+  EXPECT_LT(refined / 5, 0.1);
 }
 
 // ACES started 3 scans in: nodes 291 and 292 (a metre apart) both matched a submap 5 m along a

@@ -175,6 +175,40 @@ TEST(JointRegistration, HoldsTheOriginAndANodeThatPairsTooLittle) {
   EXPECT_GT(others_moved, poses.size() / 2);
 }
 
+// A laser's points along a wall say where the wall is across it, not where along it: a pair
+// counts across the wall its partner lies on, where the partner's neighbours draw one. A node
+// whose partners' walls leave it free along some direction keeps point-to-point pairs, so that
+// nothing slides it along a corridor. Intel and Freiburg 079 every 5th scan at their reference
+// poses: with the whole laser 60-67 % of the pairs count across walls and 11-22 of 120 nodes are
+// free; cut to 4 m (a cheap laser), 44-47 nodes are.
+Points2 within(const Points2& scan, double range) {
+  Points2 near;
+  for (const auto& [x, y] : scan)
+    if (std::hypot(x, y) <= range) near.emplace_back(x, y);
+  return near;
+}
+
+TEST(JointRegistration, CountsPairsAcrossWallsWhereTheWallsHoldTheNode) {
+  for (const RobotLog* log : {&test::intelLog(), &test::freiburg079Log()}) {
+    size_t free_nodes[2] = {0, 0};
+    for (const double range : {80.0, 4.0}) {
+      Nodes nodes = every5th(*log, 120);
+      for (Points2& scan : nodes.scans) scan = within(scan, range);
+      std::vector<Pose2D> poses = nodes.poses;
+      const JointRegistration result = registerJointly(scanPointers(nodes), poses, JointRegistrationParams{});
+      std::printf("laser cut to %.0f m: %zu of %zu pairs across walls, %zu of %zu nodes free\n", range,
+                  result.across_walls, result.pairs, result.free_nodes, nodes.poses.size());
+      free_nodes[range < 10] = result.free_nodes;
+      if (range > 10) {
+        EXPECT_GT(result.across_walls, result.pairs / 2);
+        EXPECT_LT(result.free_nodes, nodes.poses.size() / 4);
+      }
+    }
+    EXPECT_GT(free_nodes[1], size_t{36}) << "a corridor seen to 4 m leaves its nodes free along it";
+    EXPECT_GT(2 * free_nodes[1], 3 * free_nodes[0]) << "a shorter laser leaves more nodes free";
+  }
+}
+
 // A turn the odometry missed turns every node before it against the rest (Seattle every 5th
 // scan: its first six nodes 77 degrees off). Intel every 5th scan at its reference poses, its
 // first `split` nodes turned 80 degrees (either way) about the last of them: the stretch is put
