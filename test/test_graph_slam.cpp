@@ -1114,18 +1114,6 @@ TEST(GraphSlam, LongCorridorStepsAreNotTakenBackwards) {
   EXPECT_GT(loose.reversed, loose.truly_backward) << "the test must see the difference";
 }
 
-// The bundled logs as a short laser would give them (a Hokuyo URG-04LX sees 5.6 m, a depth
-// camera's fake laser about 4 m): every reading at or beyond `range` is "no return".
-RobotLog shortLaser(const RobotLog& log, float range) {
-  RobotLog out = log;
-  for (LogRecord& r : out.records) {
-    r.scan.range_max = range;
-    for (float& reading : r.scan.ranges)
-      if (!(reading < range)) reading = range;
-  }
-  return out;
-}
-
 // Driven forwards, a scan sees ground the local map has not, and fits it worse than any mapped
 // place behind it; the shorter the laser, the sooner. With a 4 m laser 1 m forward steps were
 // read backwards (Intel 2, ACES 3, each a 2 m error; 41 over 24 runs of the bundled and Radish
@@ -1137,7 +1125,7 @@ TEST(GraphSlam, AShortLaserDoesNotReadForwardStepsBackwards) {
   unbounded.seed.reverse_max_reach_share = 1e9;
   size_t false_before = 0;
   for (const auto* log : {&intelLog(), &acesLog()}) {
-    const RobotLog cut = shortLaser(*log, 4.0f);
+    const RobotLog cut = test::shortLaser(*log, 4.0f);
     const ReversalRun now = reversalRun(cut, 1, 0, params), loose = reversalRun(cut, 1, 0, unbounded);
     std::printf("4 m laser: %zu reversed, %zu truly, global %.2f m (unbounded: %zu reversed, %zu truly, %.2f m)\n",
                 now.reversed, now.truly_backward, now.global_error, loose.reversed, loose.truly_backward,
@@ -1148,7 +1136,7 @@ TEST(GraphSlam, AShortLaserDoesNotReadForwardStepsBackwards) {
   EXPECT_GT(false_before, 0u) << "the test must see the difference";
   RobotLog head = freiburg079Log();
   head.records.resize(2100);
-  const ReversalRun fr079 = reversalRun(shortLaser(head, 4.0f), 1, 0, params);
+  const ReversalRun fr079 = reversalRun(test::shortLaser(head, 4.0f), 1, 0, params);
   std::printf("Freiburg 079, first 2100 scans, 4 m laser: %zu reversed, %zu truly\n", fr079.reversed, fr079.truly_backward);
   EXPECT_GT(fr079.reversed, 10u);
   EXPECT_GE(fr079.truly_backward, fr079.reversed * 9 / 10);
@@ -1163,7 +1151,7 @@ TEST(GraphSlam, AFewReturnsDoNotOverruleSoundOdometry) {
   const RobotSlamParams params = withoutGyro();
   RobotSlamParams any = params;
   any.seed.overrule_min_points = 0;
-  const RobotLog cut = shortLaser(freiburg101Log(), 5.6f);
+  const RobotLog cut = test::shortLaser(freiburg101Log(), 5.6f);
   const ReversalRun now = reversalRun(cut, 1, 0, params), before = reversalRun(cut, 1, 0, any);
   std::printf("Freiburg 101, 5.6 m laser: global error %.2f m (any number of returns overruling: %.2f m)\n",
               now.global_error, before.global_error);

@@ -26,4 +26,16 @@ inline const slam::RobotLog& acesLog() {
   return log;
 }
 
+// A log as a short laser would give it (a Hokuyo URG-04LX sees 5.6 m, a depth camera's fake
+// laser about 4 m): every reading at or beyond `range` is "no return".
+inline slam::RobotLog shortLaser(const slam::RobotLog& log, float range) {
+  slam::RobotLog out = log;
+  for (slam::LogRecord& r : out.records) {
+    r.scan.range_max = range;
+    for (float& reading : r.scan.ranges)
+      if (!(reading < range)) reading = range;
+  }
+  return out;
+}
+
 }  // namespace mrslam::test

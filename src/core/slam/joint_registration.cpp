@@ -47,6 +47,7 @@ struct Pair {
   uint32_t k, j;
   float px, py, qx, qy;
   float nx = 0, ny = 0;
+  bool acrossWall() const { return nx != 0 || ny != 0; }
 };
 
 // The smaller and larger eigenvalue of a symmetric 2x2 matrix [a b; b c].
@@ -83,7 +84,7 @@ std::pair<float, float> wallNormal(const Points2& scan, size_t m) {
 size_t pointToPointWhereFree(std::vector<Pair>& pairs, const std::vector<Pose2D>& poses) {
   std::vector<Eigen::Matrix2d> faced(poses.size(), Eigen::Matrix2d::Zero());
   for (const Pair& p : pairs) {
-    if (p.nx == 0 && p.ny == 0) continue;
+    if (!p.acrossWall()) continue;
     const double c = std::cos(poses[p.j].yaw), s = std::sin(poses[p.j].yaw);
     const Eigen::Vector2d n(c * p.nx - s * p.ny, s * p.nx + c * p.ny);
     faced[p.k] += n * n.transpose();
@@ -160,7 +161,7 @@ Linearized linearize(const Pair& p, const Pose2D& a, const Pose2D& b) {
   l.r = Eigen::Vector2d(a.x, a.y) + pa - Eigen::Vector2d(b.x, b.y) - qb;
   l.jk << 1, 0, -pa.y(), 0, 1, pa.x();
   l.jj << -1, 0, qb.y(), 0, -1, -qb.x();
-  if (p.nx == 0 && p.ny == 0) return l;
+  if (!p.acrossWall()) return l;
   // Along the normal n, which turns with node j: r = n . (a + pa - b - qb), where n . qb does
   // not change as j turns, so d r / d yaw_j = n' . (a + pa - b), n' being n turned 90 degrees.
   const Eigen::Vector2d n(cb * p.nx - sb * p.ny, sb * p.nx + cb * p.ny), turned(-n.y(), n.x());
@@ -250,7 +251,7 @@ JointRegistration registerJointly(const std::vector<const Points2*>& scans, std:
   result.pairs = pairing.pairs.size();
   result.free_nodes = pairing.free_nodes;
   result.across_walls = static_cast<size_t>(
-      std::count_if(pairing.pairs.begin(), pairing.pairs.end(), [](const Pair& p) { return p.nx != 0 || p.ny != 0; }));
+      std::count_if(pairing.pairs.begin(), pairing.pairs.end(), [](const Pair& p) { return p.acrossWall(); }));
   std::vector<int> variable(scans.size(), -1);
   int free_count = 0;
   for (size_t k = 0; k < scans.size(); ++k)
