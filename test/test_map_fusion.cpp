@@ -479,6 +479,10 @@ TEST(MergeCli, RejectedMergeIsNotAnError) {
   const test::RunResult r = run("--json " + test::referenceMap("intel") + " " + test::referenceMap("freiburg-079"));
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("\"accepted\": false"), std::string::npos) << r.output;
+  // Every check's figure is printed, so a user sees which one failed and by how much.
+  for (const char* key : {"wall_agreement", "shared_wall_m", "shared_wall_fraction", "entropy_increase",
+                          "distinctiveness", "ambiguity", "seen_through", "reason"})
+    EXPECT_NE(r.output.find("\"" + std::string(key) + "\": "), std::string::npos) << key << ": " << r.output;
 }
 
 TEST(MergeCli, BadInputGivesOneLineNamingTheFileAndExitTwo) {

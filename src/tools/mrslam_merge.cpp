@@ -49,6 +49,18 @@ std::string jsonString(const std::string& s) {
   return out + "\"";
 }
 
+// Every check's figure (verification.h), so a user sees how close a verdict was.
+std::string jsonChecks(const fusion::Verdict& v) {
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "\"wall_agreement\": %.4f, \"shared_wall_m\": %.2f, \"shared_wall_fraction\": %.4f, "
+                "\"entropy_increase\": %.4f, \"distinctiveness\": %.4f, \"ambiguity\": %.4f, "
+                "\"seen_through\": %.4f",
+                v.wall_agreement, v.shared_wall_m, v.shared_wall_fraction, v.entropy_increase,
+                v.distinctiveness, v.ambiguity, v.seen_through);
+  return buf;
+}
+
 struct Outcome {
   std::optional<Pose2D> pose_in_a;  // set once accepted (directly or through a chain)
   fusion::FusionResult last;        // the latest attempt (for V, time and the reason)
@@ -148,9 +160,9 @@ int main(int argc, char** argv) {
     const Pose2D pose = o.pose_in_a.value_or(o.last.pose);
     if (json) {
       std::printf("{\"map\": %s, \"accepted\": %s, \"x\": %.10g, \"y\": %.10g, \"yaw\": %.8g, "
-                  "\"acceptance\": %.4f, \"time_ms\": %.1f%s%s}\n",
+                  "\"acceptance\": %.4f, %s, \"time_ms\": %.1f%s%s}\n",
                   jsonString(files[i]).c_str(), o.pose_in_a ? "true" : "false", pose.x, pose.y, pose.yaw,
-                  o.last.verdict.acceptance, o.time_ms,
+                  o.last.verdict.acceptance, jsonChecks(o.last.verdict).c_str(), o.time_ms,
                   o.pose_in_a ? (", \"via\": " + jsonString(files[o.via])).c_str() : "",
                   o.pose_in_a ? "" : (", \"reason\": " + jsonString(o.last.verdict.reason)).c_str());
     } else if (o.pose_in_a) {
