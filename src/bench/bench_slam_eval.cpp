@@ -1,4 +1,4 @@
-// mrslam_bench_slam_eval [--scan-relations N] [--wall-directions] LOG [LABEL=TRAJECTORY ...]: accuracy of
+// mrslam_bench_slam_eval [--scan-relations N] [--wall-directions] [--split-global] LOG [LABEL=TRAJECTORY ...]: accuracy of
 // trajectories against the reference poses of a corrected CARMEN log (Kümmerle et al. 2009
 // relations), beside the raw wheel odometry chained from the log's ODOM lines. Prints markdown
 // table rows:
@@ -8,7 +8,10 @@
 // reference poses against them; the relations' count goes to stderr. With --wall-directions,
 // one more: how far the wall directions of the map's regions spread (bench/wall_directions.h:
 // a bent map spreads, whatever its revisits say): standard deviation and range in degrees, and
-// the number of regions with walls enough to count.
+// the number of regions with walls enough to count. With --split-global, two more: the global
+// error with the reference's positions and the trajectory's own headings, and with its own
+// positions and the reference's headings (bench/trajectory_metrics.h, splitGlobalError): which
+// of the two makes a global error.
 // Trajectory lines are matched to the log's scans by scan index where they carry one, else by
 // time stamp, in order.
 //
@@ -81,6 +84,19 @@ std::string wallDirectionsColumn(const mrslam::slam::RobotLog& log, const std::v
   return buffer;
 }
 
+// The global error (the table's 500 pairs) with the reference's positions and `poses`' own
+// headings, then with `poses`' own positions and the reference's headings.
+std::string splitGlobalColumns(const std::vector<Pose2D>& poses, const std::vector<size_t>& scans,
+                               const std::vector<Pose2D>& reference) {
+  std::vector<Pose2D> matched;
+  for (size_t k : scans) matched.push_back(reference[k]);
+  if (matched.size() < 2) return " – | – |";
+  const auto split = bench::splitGlobalError(poses, matched, bench::randomPairs(matched.size(), 500, 2009));
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), " %.2f | %.2f |", split.own_headings, split.own_positions);
+  return buffer;
+}
+
 void row(const std::string& log_name, const std::string& label, const std::vector<Pose2D>& estimate,
          const std::vector<Pose2D>& reference, double conflict, const std::string& more_columns) {
   const double deg = 180.0 / M_PI;
@@ -99,7 +115,7 @@ void row(const std::string& log_name, const std::string& label, const std::vecto
 int main(int argc, char** argv) {
   int first = 1;
   size_t relation_count = 0;
-  bool bad_usage = false, wall_directions = false;
+  bool bad_usage = false, wall_directions = false, split_global = false;
   while (first < argc && std::string(argv[first]).rfind("--", 0) == 0 && !bad_usage) {
     const std::string flag = argv[first];
     if (flag == "--scan-relations") {
@@ -110,12 +126,15 @@ int main(int argc, char** argv) {
     } else if (flag == "--wall-directions") {
       wall_directions = true;
       ++first;
+    } else if (flag == "--split-global") {
+      split_global = true;
+      ++first;
     } else {
       bad_usage = true;  // an unknown flag
     }
   }
   if (argc <= first || bad_usage) {
-    std::cerr << "usage: mrslam_bench_slam_eval [--scan-relations N (1..100000)] [--wall-directions] LOG "
+    std::cerr << "usage: mrslam_bench_slam_eval [--scan-relations N (1..100000)] [--wall-directions] [--split-global] LOG "
                  "[LABEL=TRAJECTORY ...]\n";
     return 2;
   }
@@ -139,6 +158,7 @@ int main(int argc, char** argv) {
     auto more = [&](const std::vector<Pose2D>& poses, const std::vector<size_t>& scans) {
       std::string columns = relation_count > 0 ? scanCheckedColumns(poses, relationsWithin(relations, scans)) : "";
       if (wall_directions) columns += wallDirectionsColumn(log, scans, poses);
+      if (split_global) columns += splitGlobalColumns(poses, scans, reference);
       return columns;
     };
     std::cout << "| " << name << " | reference poses (the truth used here) | – | – | – | – | – | – | " << std::fixed

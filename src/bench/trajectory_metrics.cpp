@@ -71,6 +71,20 @@ Pose2D fitRigid(const std::vector<Pose2D>& from, const std::vector<Pose2D>& to) 
   return {tx - (c * fx - s * fy), ty - (s * fx + c * fy), yaw};
 }
 
+GlobalErrorSplit splitGlobalError(const std::vector<Pose2D>& estimate, const std::vector<Pose2D>& reference,
+                                  const std::vector<std::pair<size_t, size_t>>& pairs) {
+  const Pose2D frame = fitRigid(estimate, reference);
+  const size_t n = std::min(estimate.size(), reference.size());
+  std::vector<Pose2D> own_headings(n), own_positions(n);
+  for (size_t k = 0; k < n; ++k) {
+    const Pose2D placed = frame.compose(estimate[k]);
+    own_headings[k] = {reference[k].x, reference[k].y, placed.yaw};
+    own_positions[k] = {placed.x, placed.y, reference[k].yaw};
+  }
+  return {relationError(own_headings, reference, pairs).trans_mean,
+          relationError(own_positions, reference, pairs).trans_mean};
+}
+
 std::vector<TrajectoryEntry> readIndexedTrajectory(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open");

@@ -39,6 +39,18 @@ std::vector<std::pair<size_t, size_t>> randomPairs(size_t n, size_t count, unsig
 // no scale): where a trajectory's frame sits in the reference's frame. Needs >= 2 poses.
 Pose2D fitRigid(const std::vector<Pose2D>& from, const std::vector<Pose2D>& to);
 
+// Where a global error comes from: the estimate is placed in the reference's frame (fitRigid
+// on the positions; its headings turned by the same angle), then scored over `pairs` twice,
+// once with the reference's positions and its own headings, once with its own positions and
+// the reference's headings. A heading off by 1 degree at pose i moves every relation out of i
+// by 1.7 cm per metre to j, so on a large map the headings alone can make most of the error.
+struct GlobalErrorSplit {
+  double own_headings = 0;   // m: reference positions, the estimate's headings
+  double own_positions = 0;  // m: the estimate's positions, reference headings
+};
+GlobalErrorSplit splitGlobalError(const std::vector<Pose2D>& estimate, const std::vector<Pose2D>& reference,
+                                  const std::vector<std::pair<size_t, size_t>>& pairs);
+
 // Reads "timestamp x y yaw [scan]" lines (scan: the index of the scan in its log, written by
 // mrslam_slam_log; -1 where absent); throws std::runtime_error naming the line on bad input.
 struct TrajectoryEntry {
