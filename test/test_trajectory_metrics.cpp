@@ -43,7 +43,9 @@ TEST(GlobalErrorSplit, HeadingsAndPositionsEachKeepTheirOwnShare) {
   // fitted to noisy positions turns every heading by a hair).
   const auto positions = bench::splitGlobalError(disturbed(reference, 0.0, 0.05), reference, pairs);
   EXPECT_LT(positions.own_headings, 0.01);
-  EXPECT_NEAR(positions.own_positions, 0.05 * std::sqrt(M_PI / 2) * std::sqrt(2.0), 0.015);  // |difference of two 2D errors|
+  // A relation's error is then the difference of two independent 2D errors of 5 cm per axis:
+  // Rayleigh with 5 cm x sqrt(2) per axis, whose mean is that times sqrt(pi / 2).
+  EXPECT_NEAR(positions.own_positions, 0.05 * std::sqrt(2.0) * std::sqrt(M_PI / 2), 0.015);
 }
 
 }  // namespace

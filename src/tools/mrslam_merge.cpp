@@ -10,6 +10,7 @@
 // in A). --held gives the pose of B's frame in A's (m, m, rad) that a merger held when it
 // estimated B against A: the search verifies it too, so a merger's recorded estimate
 // (estimate_record.h) replays exactly. Exit status: 0 when the run completed (rejected merges included), 2 on bad input.
+#include <cmath>
 #include <cstdio>
 #include <opencv2/core/utils/logger.hpp>
 #include <iostream>
@@ -49,16 +50,21 @@ std::string jsonString(const std::string& s) {
   return out + "\"";
 }
 
-// Every check's figure (verification.h), so a user sees how close a verdict was.
+// Every check's figure (verification.h), so a user sees how close a verdict was; a figure
+// that is not a number (never expected) is written as null, which JSON can hold.
 std::string jsonChecks(const fusion::Verdict& v) {
-  char buf[320];
-  std::snprintf(buf, sizeof buf,
-                "\"wall_agreement\": %.4f, \"shared_wall_m\": %.2f, \"shared_wall_fraction\": %.4f, "
-                "\"entropy_increase\": %.4f, \"distinctiveness\": %.4f, \"ambiguity\": %.4f, "
-                "\"seen_through\": %.4f",
-                v.wall_agreement, v.shared_wall_m, v.shared_wall_fraction, v.entropy_increase,
-                v.distinctiveness, v.ambiguity, v.seen_through);
-  return buf;
+  const std::pair<const char*, double> figures[] = {
+      {"wall_agreement", v.wall_agreement},     {"shared_wall_m", v.shared_wall_m},
+      {"shared_wall_fraction", v.shared_wall_fraction}, {"entropy_increase", v.entropy_increase},
+      {"distinctiveness", v.distinctiveness},   {"ambiguity", v.ambiguity},
+      {"seen_through", v.seen_through}};
+  std::string out;
+  for (const auto& [key, value] : figures) {
+    char number[32] = "null";
+    if (std::isfinite(value)) std::snprintf(number, sizeof number, "%.4f", value);
+    out += (out.empty() ? "\"" : ", \"") + std::string(key) + "\": " + number;
+  }
+  return out;
 }
 
 struct Outcome {
