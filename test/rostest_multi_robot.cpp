@@ -2,7 +2,9 @@
 // all under one master, each running robot.launch (front end, map share, map merge).
 //
 // Ground truth: each robot's map frame placed in the log's world frame by fitting its published
-// poses to the reference poses in the bag (mrslam/bench/peer_frame_truth.h).
+// poses to the reference poses in the bag (mrslam/bench/peer_frame_truth.h). Each pair's line
+// also gives its error against a second truth, the one the robots' scans fix where both saw one
+// place (mrslam/bench/scan_fixed_frame.h), with that truth's spread: printed, not checked.
 //
 // Checks: every merger accepts every peer within 1 degree and 2 cells of the truth (the cells
 // measured where the peer's map lands: at the centre of its trajectory), read once the bag has
@@ -44,6 +46,7 @@
 #include <optional>
 
 #include "mrslam/bench/peer_frame_truth.h"
+#include "mrslam/bench/scan_fixed_frame.h"
 #include "mrslam/cell_codec.h"
 #include "mrslam/map_io.h"
 
@@ -226,6 +229,21 @@ mrslam::LocalMapShare shareOf(const std::string& id, const mrslam::OccupancyGrid
   share.map.data = grid.data;
   share.version = version;
   return share;
+}
+
+// The error of `estimate` (robot M's map frame in robot N's) against the truth the robots' scans
+// fix where both saw one place, with that truth's own spread (scan_fixed_frame.h), as a clause
+// of the pair's line: a second yardstick beside the pose-fit truth the checks use, whose
+// reference poses step with more error than the robots' own (README, "Against relations the
+// scans fix").
+std::string againstTheScans(const mrslam::slam::RobotLog& log, const Robot& n, const Robot& m, const Pose2D& estimate) {
+  const auto truth = mrslam::bench::scanFixedPeerFrame(log, n, m);
+  if (!truth) return "; too few scan relations for a second truth";
+  const mrslam::bench::FrameError e = mrslam::bench::frameErrorAgainst(estimate, truth->truth, m);
+  char line[200];
+  std::snprintf(line, sizeof line, "; against the scans %.2f cells, %.2f deg (%zu relations, spread %.2f cells, %.2f deg)",
+                e.metres / 0.05, e.yaw_deg, truth->relations, truth->spread_m / 0.05, truth->spread_deg);
+  return line;
 }
 
 TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
@@ -476,6 +494,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       }
     }
 
+  // The log the bag was made from: its scans give a second truth (scan_fixed_frame.h).
+  const mrslam::slam::RobotLog log = mrslam::slam::readCarmenLog(data_dir + "/logs/carmen_corrected/intel-corrected.log.gz");
   std::lock_guard<std::mutex> lock(mutex);
   std::map<std::string, Pose2D> world;
   for (const auto& n : names) {
@@ -519,10 +539,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
     if (!joined) break;
     // The late peer's map frame is the world frame: its truth in robotN/map is T_N^-1. Error
     // measured where robot N mapped (the centroid c of its trajectory): |E * T_N * c - c|.
-    double cx = 0, cy = 0;
-    for (const auto& [stamp, pose] : robots[n].estimate) cx += pose.x, cy += pose.y;
-    cx /= std::max<size_t>(1, robots[n].estimate.size()), cy /= std::max<size_t>(1, robots[n].estimate.size());
-    double wx, wy, bx, by;
+    double cx, cy, wx, wy, bx, by;
+    mrslam::bench::pathCentre(robots[n], cx, cy);
     world[n].apply(cx, cy, wx, wy);
     late[n].pose.apply(wx, wy, bx, by);
     const double dyaw = std::abs(Pose2D::normalizeAngle(late[n].pose.yaw + world[n].yaw)) * 180 / M_PI;
@@ -550,7 +568,8 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
       EXPECT_TRUE(p.accepted) << n << " did not accept " << m;
       const mrslam::bench::FrameError e = mrslam::bench::peerFrameError(p.pose, world[n], world[m], robots[m]);
       const double dyaw = e.yaw_deg, dcells = e.metres / 0.05;
-      std::printf("%s <- %s: V %.3f, error %.2f cells, %.2f deg\n", n.c_str(), m.c_str(), p.acceptance, dcells, dyaw);
+      std::printf("%s <- %s: V %.3f, error %.2f cells, %.2f deg%s\n", n.c_str(), m.c_str(), p.acceptance, dcells, dyaw,
+                  againstTheScans(log, robots[n], robots[m], p.pose).c_str());
       EXPECT_LE(dyaw, max_error_deg) << n << " <- " << m;
       EXPECT_LE(dcells, max_error_cells) << n << " <- " << m;
     }

@@ -10,6 +10,7 @@
 
 #include "mrslam/bench/pair_maker.h"
 #include "mrslam/bench/peer_frame_truth.h"
+#include "mrslam/bench/scan_fixed_frame.h"
 #include "mrslam/bench/trajectory_metrics.h"
 #include "mrslam/fusion/map_fusion.h"
 #include "mrslam/map_io.h"
@@ -83,6 +84,47 @@ TEST(MergeRegressions, EightRobotPairRobot8FromRobot2IsRejectedOrCorrect) {
     EXPECT_LE(e.yaw_deg, 1.0);
     EXPECT_LE(e.metres, 2 * resolution + rms8 + rms2) << "truth's own fit residuals " << rms8 << ", " << rms2 << " m";
   }
+}
+
+// The two truths of a merge between robots (peer_frame_truth.h: each robot's path fitted to the
+// reference poses; scan_fixed_frame.h: the robots' scans aligned where both saw one place) on the
+// multi-robot rostest's three Intel windows, replayed offline: each exists for every ordered
+// pair, and they agree within the 2 cells / 0.5 degrees either can be trusted to (measured
+// here: at most 1.5 cells and 0.3 degrees apart, the scan-fixed truths' own spread over their
+// relations 0.3-1.3 cells); the merge lies within the rostest's bar of both.
+TEST(MergeRegressions, TheScansAndTheReferencePosesAgreeOnWhereEachRobotsMapLies) {
+  const std::string path = test::dataPath("logs/carmen_corrected/intel-corrected.log.gz");
+  const auto scans = bench::readCarmenScans(path);
+  const slam::RobotLog log = slam::readCarmenLog(path);
+  const std::vector<std::string> windows = {"0:150", "336:480", "1864:2000"};
+  std::vector<WindowRun> runs;
+  for (const auto& w : windows) runs.push_back(runWindow(w, scans));
+  for (size_t n = 0; n < runs.size(); ++n)
+    for (size_t m = 0; m < runs.size(); ++m) {
+      if (n == m) continue;
+      const std::string pair = windows[n] + " <- " + windows[m];
+      const auto frame_n = bench::frameInWorld(runs[n].track), frame_m = bench::frameInWorld(runs[m].track);
+      const auto scan_fixed = bench::scanFixedPeerFrame(log, runs[n].track, runs[m].track);
+      ASSERT_TRUE(frame_n && frame_m && scan_fixed) << pair;
+      EXPECT_GE(scan_fixed->relations, 5u) << pair;
+      const bench::FrameError apart =
+          bench::frameErrorAgainst(scan_fixed->truth, frame_n->inverse().compose(*frame_m), runs[m].track);
+      const double cell = runs[n].map.resolution;
+      EXPECT_LE(apart.metres, 2 * cell) << pair;
+      EXPECT_LE(apart.yaw_deg, 0.5) << pair;
+      const fusion::FusionResult r = fusion::alignMaps(runs[n].map, runs[m].map, fusion::FusionParams{});
+      ASSERT_TRUE(r.accepted) << pair << ": " << r.verdict.reason;
+      const bench::FrameError by_poses = bench::peerFrameError(r.pose, *frame_n, *frame_m, runs[m].track);
+      const bench::FrameError by_scans = bench::frameErrorAgainst(r.pose, scan_fixed->truth, runs[m].track);
+      std::printf("%s: merge %.2f cells / %.2f deg from the pose-fit truth, %.2f / %.2f from the scan-fixed truth "
+                  "(%zu relations of %zu pairs, spread %.2f cells / %.2f deg); the truths %.2f cells / %.2f deg apart\n",
+                  pair.c_str(), by_poses.metres / cell, by_poses.yaw_deg, by_scans.metres / cell, by_scans.yaw_deg,
+                  scan_fixed->relations, scan_fixed->tried, scan_fixed->spread_m / cell, scan_fixed->spread_deg,
+                  apart.metres / cell, apart.yaw_deg);
+      EXPECT_LE(by_poses.metres, 2 * cell) << pair;
+      EXPECT_LE(by_scans.metres, 2 * cell) << pair;
+      EXPECT_LE(std::max(by_poses.yaw_deg, by_scans.yaw_deg), 1.0) << pair;
+    }
 }
 
 }  // namespace

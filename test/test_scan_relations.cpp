@@ -1,10 +1,12 @@
 // The yardstick that checks relations against the scans (bench/scan_relations.h), on the real
 // logs: it must find the motion the scans fix, refuse what they do not fix, and score a bent
-// trajectory worse than a straight one.
+// trajectory worse than a straight one; and the truth it gives for where one robot's map lies in
+// another's (bench/scan_fixed_frame.h).
 #include <gtest/gtest.h>
 
 #include <cmath>
 
+#include "mrslam/bench/scan_fixed_frame.h"
 #include "mrslam/bench/scan_relations.h"
 #include "test_logs.h"
 
@@ -88,6 +90,43 @@ TEST(ScanRelations, RelationsOnARealLogAreRightAndScoreABentTrajectoryWorse) {
   EXPECT_LT(straight.trans_mean, 0.05);
   EXPECT_GT(crooked.trans_mean, 2 * straight.trans_mean) << "the bend went unnoticed";
   EXPECT_GT(crooked.rot_mean, straight.rot_mean + 0.1 * M_PI / 180) << "the bend went unnoticed";
+}
+
+// Two robots on windows of the Intel log whose paths are the reference's, each in a map frame
+// of its own: the truth the scans fix is where the frames really lie, to what the reference's
+// own errors allow (a few centimetres), and a robot whose map is turned is found turned.
+TEST(ScanFixedFrame, FindsWhereOneRobotsMapFrameLiesInAnothers) {
+  const auto& log = mrslam::test::intelLog();
+  const Pose2D frame_n{3.0, -2.0, 0.7}, frame_m{-5.0, 4.0, -2.1};
+  const double t0 = log.records.front().scan.stamp;
+  auto track = [&](double from, double to, const Pose2D& frame) {
+    bench::RobotTrack t;
+    for (const auto& record : log.records) {
+      const double s = record.scan.stamp - t0;
+      if (s < from || s >= to) continue;
+      const auto key = static_cast<uint64_t>(std::llround(record.scan.stamp * 1e9));
+      t.estimate[key] = frame.inverse().compose(record.reference);
+      t.reference[key] = record.reference;
+    }
+    return t;
+  };
+  const bench::RobotTrack n = track(0, 150, frame_n), m = track(1864, 2000, frame_m);
+  const auto found = bench::scanFixedPeerFrame(log, n, m);
+  ASSERT_TRUE(found);
+  EXPECT_GE(found->relations, 5u) << "of " << found->tried;
+  const bench::FrameError error = bench::frameErrorAgainst(found->truth, frame_n.inverse().compose(frame_m), m);
+  EXPECT_LT(error.metres, 0.03);
+  EXPECT_LT(error.yaw_deg, 0.2);
+  EXPECT_LT(found->spread_m, 0.05);
+  // M's map turned by 1 degree about its frame's origin: the truth turns with it.
+  bench::RobotTrack turned = m;
+  const Pose2D turn{0, 0, M_PI / 180};
+  for (auto& [stamp, pose] : turned.estimate) pose = turn.compose(pose);
+  const auto found_turned = bench::scanFixedPeerFrame(log, n, turned);
+  ASSERT_TRUE(found_turned);
+  const Pose2D expected = frame_n.inverse().compose(frame_m).compose(turn.inverse());
+  EXPECT_LT(bench::frameErrorAgainst(found_turned->truth, expected, turned).metres, 0.03);
+  EXPECT_LT(std::abs(Pose2D::normalizeAngle(found_turned->truth.yaw - found->truth.yaw) + M_PI / 180) * 180 / M_PI, 0.05);
 }
 
 }  // namespace

@@ -26,17 +26,24 @@ std::optional<Pose2D> frameInWorld(const RobotTrack& track, size_t min_poses, do
   return frame;
 }
 
-FrameError peerFrameError(const Pose2D& estimate, const Pose2D& n_in_world, const Pose2D& m_in_world,
-                          const RobotTrack& m) {
-  const Pose2D truth = n_in_world.inverse().compose(m_in_world);
-  double cx = 0, cy = 0;
+void pathCentre(const RobotTrack& m, double& cx, double& cy) {
+  cx = cy = 0;
   for (const auto& [stamp, pose] : m.estimate) cx += pose.x, cy += pose.y;
   const double n = static_cast<double>(std::max<size_t>(1, m.estimate.size()));
   cx /= n, cy /= n;
-  double ex, ey, tx, ty;
+}
+
+FrameError frameErrorAgainst(const Pose2D& estimate, const Pose2D& truth, const RobotTrack& m) {
+  double cx, cy, ex, ey, tx, ty;
+  pathCentre(m, cx, cy);
   estimate.apply(cx, cy, ex, ey);
   truth.apply(cx, cy, tx, ty);
   return {std::abs(Pose2D::normalizeAngle(estimate.yaw - truth.yaw)) * 180.0 / M_PI, std::hypot(ex - tx, ey - ty), truth};
+}
+
+FrameError peerFrameError(const Pose2D& estimate, const Pose2D& n_in_world, const Pose2D& m_in_world,
+                          const RobotTrack& m) {
+  return frameErrorAgainst(estimate, n_in_world.inverse().compose(m_in_world), m);
 }
 
 }  // namespace mrslam::bench

@@ -36,5 +36,10 @@ struct FrameError {
 };
 FrameError peerFrameError(const Pose2D& estimate, const Pose2D& n_in_world, const Pose2D& m_in_world,
                           const RobotTrack& m);
+// The same against a truth given directly (M's map frame in N's).
+FrameError frameErrorAgainst(const Pose2D& estimate, const Pose2D& truth, const RobotTrack& m);
+// The centre of M's path in M's map frame (the mean of its estimated positions): where the
+// translation error is measured.
+void pathCentre(const RobotTrack& m, double& cx, double& cy);
 
 }  // namespace mrslam::bench
