@@ -207,4 +207,3 @@ TEST(MergeRegressions, TheRightPoseOfMirroredArcsIsNotDroppedBeforeTheAmbiguityC
     EXPECT_LE(std::abs(Pose2D::normalizeAngle(r.pose.yaw + 3.0278)) * 180 / M_PI, 1.0) << r.pose.yaw;
   }
 }
-

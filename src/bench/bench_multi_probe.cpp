@@ -15,6 +15,8 @@
 // its last reason; when accepted, what led there: when the merger stamped the peer's first map
 // on its own clock, the first try's delay, the tries up to the accept and the last rejection's
 // reason).
+// Given the log the bag was made from (third argument), each accepted pair's line also gives its
+// error against the truth the robots' scans fix (mrslam/bench/scan_fixed_frame.h).
 // The clock it reads is /clock (remap it to follow one robot's clock).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -28,6 +30,8 @@
 #include <atomic>
 #include <cmath>
 #include <csignal>
+#include <fstream>
+#include <future>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -36,6 +40,8 @@
 #include <vector>
 
 #include "mrslam/bench/peer_frame_truth.h"
+#include "mrslam/bench/scan_fixed_frame.h"
+#include "mrslam/slam/robot_log.h"
 
 namespace {
 mrslam::Pose2D toPose(const geometry_msgs::Pose& p) {
@@ -97,18 +103,40 @@ double peakRate(const std::map<std::string, std::vector<std::pair<double, double
 }
 }  // namespace
 
+// With the log the bag was made from: the accepted pair's error against the truth the robots'
+// scans fix where both saw one place (scan_fixed_frame.h) and that truth's own spread, as fields
+// of its line ("scan_cells=none" when too few scan pairs relate the two robots).
+std::string scanFixedFields(const mrslam::slam::RobotLog* log, const mrslam::bench::RobotTrack& n,
+                            const mrslam::bench::RobotTrack& m, const mrslam::Pose2D& estimate) {
+  if (!log) return "";
+  const auto truth = mrslam::bench::scanFixedPeerFrame(*log, n, m);
+  if (!truth) return " scan_cells=none";
+  const auto e = mrslam::bench::frameErrorAgainst(estimate, truth->truth, m);
+  char text[160];
+  std::snprintf(text, sizeof(text), " scan_cells=%.2f scan_deg=%.2f scan_relations=%zu scan_spread_cells=%.2f",
+                e.metres / 0.05, e.yaw_deg, truth->relations, truth->spread_m / 0.05);
+  return text;
+}
+
 std::atomic<bool> g_told_to_finish{false};
 void finishNow(int) { g_told_to_finish = true; }
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "mrslam_bench_multi_probe", ros::init_options::AnonymousName);
   std::signal(SIGUSR1, finishNow);
-  if (argc < 3) {
-    std::fprintf(stderr, "usage: mrslam_bench_multi_probe N SECONDS (at most; SIGUSR1 ends it sooner)\n");
+  if (argc < 3 || argc > 4) {
+    std::fprintf(stderr, "usage: mrslam_bench_multi_probe N SECONDS (at most; SIGUSR1 ends it sooner) [LOG the bag was made from]\n");
     return 2;
   }
   const int robots = std::atoi(argv[1]);
   const double seconds = std::atof(argv[2]);
+  // Read while the robots run (a few seconds), so that no pose published meanwhile is missed.
+  if (argc == 4 && !std::ifstream(argv[3])) {
+    std::fprintf(stderr, "mrslam_bench_multi_probe: cannot read the log %s\n", argv[3]);
+    return 2;
+  }
+  std::future<mrslam::slam::RobotLog> reading;
+  if (argc == 4) reading = std::async(std::launch::async, [path = std::string(argv[3])] { return mrslam::slam::readRobotLog(path); });
   ros::NodeHandle nh;
   std::mutex mutex;
   std::map<int, mrslam::bench::RobotTrack> tracks;
@@ -190,6 +218,15 @@ int main(int argc, char** argv) {
   const ros::WallTime start = ros::WallTime::now();
   while (!g_told_to_finish && (ros::WallTime::now() - start).toSec() < seconds) ros::WallDuration(0.2).sleep();
   const double wall = (ros::WallTime::now() - start).toSec();
+  std::optional<mrslam::slam::RobotLog> log;
+  if (reading.valid()) {
+    try {
+      log = reading.get();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mrslam_bench_multi_probe: %s: %s\n", argv[3], e.what());
+      return 2;
+    }
+  }
   std::lock_guard<std::mutex> lock(mutex);
   // The real-time factor over the time the clock was running (the bag playing).
   const double played_wall = first_clock >= 0 ? (last_wall - first_wall).toSec() : 0.0;
@@ -251,10 +288,11 @@ int main(int argc, char** argv) {
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
     std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d heard_s_ago=%.1f link_silent_s=%.1f "
-                "deg=%.2f cells=%.2f truth_bar_cells=%.2f truth=%s first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
+                "deg=%.2f cells=%.2f truth_bar_cells=%.2f truth=%s%s first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
                 key.first, key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.heard_s_ago,
-                value.link_silent, e.yaw_deg, cells,
-                truth_bar, truth.c_str(), value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
+                value.link_silent, e.yaw_deg, cells, truth_bar, truth.c_str(),
+                scanFixedFields(log ? &*log : nullptr, tracks[key.first], tracks[peer], value.pose).c_str(),
+                value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
                 value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
     relayed += !value.via.empty();
     if (right) {

@@ -60,6 +60,25 @@ std::vector<std::pair<size_t, size_t>> candidatePairs(const slam::RobotLog& log,
   return candidates;
 }
 
+// The scans of a track around its k-th: those within `reach` metres of path of it (by the
+// track's own poses), each with its pose in the k-th scan's frame.
+std::vector<std::pair<size_t, Pose2D>> localMap(const TrackRecords& records, size_t k, double reach) {
+  const Pose2D centre_inverse = records[k].second.inverse();
+  std::vector<std::pair<size_t, Pose2D>> out{{records[k].first, Pose2D{}}};
+  for (int step : {-1, 1}) {
+    double path = 0;
+    for (size_t m = k; ; ) {
+      if ((step < 0 && m == 0) || (step > 0 && m + 1 == records.size())) break;
+      const size_t next = step < 0 ? m - 1 : m + 1;
+      path += std::hypot(records[next].second.x - records[m].second.x, records[next].second.y - records[m].second.y);
+      if (path > reach) break;
+      out.emplace_back(records[next].first, centre_inverse.compose(records[next].second));
+      m = next;
+    }
+  }
+  return out;
+}
+
 // The median of `frames` (heading, and where they put the point c), and their spread about it.
 ScanFixedFrame medianFrame(const std::vector<Pose2D>& frames, double cx, double cy) {
   std::vector<double> turns, xs, ys;  // headings about the first frame's (no wrap)
@@ -92,8 +111,10 @@ std::optional<ScanFixedFrame> scanFixedPeerFrame(const slam::RobotLog& log, cons
   const auto candidates = candidatePairs(log, records_n, records_m, params);
   std::vector<Pose2D> frames;  // T_k
   for (const auto& [a, b] : candidates) {
-    const auto relation = scanCheckedRelation(log, records_n[a].first, records_m[b].first, params.relation);
-    if (relation) frames.push_back(records_n[a].second.compose(relation->motion).compose(records_m[b].second.inverse()));
+    const Pose2D guess = log.records[records_n[a].first].reference.inverse().compose(log.records[records_m[b].first].reference);
+    const auto relation = localMapRelation(log, localMap(records_n, a, params.local_path), localMap(records_m, b, params.local_path),
+                                           guess, params.relation);
+    if (relation) frames.push_back(records_n[a].second.compose(*relation).compose(records_m[b].second.inverse()));
   }
   if (frames.size() < std::max<size_t>(params.min_relations, 1)) return std::nullopt;
   double cx, cy;

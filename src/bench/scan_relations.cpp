@@ -192,19 +192,9 @@ std::optional<Pose2D> alignClouds(const Cloud& a, const Cloud& b, const Pose2D& 
   return poseOf(fit->x);
 }
 
-}  // namespace
-
-std::optional<Pose2D> alignScans(const slam::LaserScan& a, const slam::LaserScan& b, const Pose2D& laser_in_base,
-                                 const Pose2D& seed, const ScanRelationParams& params, double* inlier_share) {
-  return alignClouds(cloudOf(a, laser_in_base, params.max_range), cloudOf(b, laser_in_base, params.max_range), seed, params,
-                     inlier_share);
-}
-
-std::optional<Relation> scanCheckedRelation(const slam::RobotLog& log, size_t i, size_t j, const ScanRelationParams& params) {
-  // Each scan's points and wall normals once, for all seven alignments.
-  const Cloud a = cloudOf(log.records.at(i).scan, log.laser_in_base, params.max_range);
-  const Cloud b = cloudOf(log.records.at(j).scan, log.laser_in_base, params.max_range);
-  const Pose2D guess = log.records[i].reference.inverse().compose(log.records[j].reference);
+// Cloud b's pose in cloud a's frame when the clouds fix it: ICP from `guess` and from four seeds
+// around it ends at one pose with enough of b on a's walls, and a matched onto b agrees.
+std::optional<Pose2D> checkedAlignment(const Cloud& a, const Cloud& b, const Pose2D& guess, const ScanRelationParams& params) {
   auto agrees = [&](const std::optional<Pose2D>& pose, const Pose2D& with, double xy, double yaw) {
     return pose && std::hypot(pose->x - with.x, pose->y - with.y) <= xy && std::abs(Pose2D::normalizeAngle(pose->yaw - with.yaw)) <= yaw;
   };
@@ -222,7 +212,46 @@ std::optional<Relation> scanCheckedRelation(const slam::RobotLog& log, size_t i,
   const auto reverse = alignClouds(b, a, guess.inverse(), params, &reverse_share);
   if (!reverse || reverse_share < params.min_inlier_share) return std::nullopt;
   if (!agrees(reverse->inverse(), *first, params.reverse_agree_xy, params.reverse_agree_yaw)) return std::nullopt;
-  return Relation{i, j, *first};
+  return first;
+}
+
+// The scans' clouds drawn at their poses, in one frame.
+Cloud localCloud(const slam::RobotLog& log, const std::vector<std::pair<size_t, Pose2D>>& scans, double max_range) {
+  Cloud out;
+  for (const auto& [k, pose] : scans) {
+    const Cloud c = cloudOf(log.records.at(k).scan, log.laser_in_base, max_range);
+    const Eigen::Vector3d x = vectorOf(pose);
+    const Eigen::Rotation2Dd turn(pose.yaw);
+    for (size_t m = 0; m < c.points.size(); ++m)
+      out.points.push_back(moved(x, c.points[m])), out.normals.push_back(turn * c.normals[m]);
+  }
+  return out;
+}
+
+
+}  // namespace
+
+std::optional<Pose2D> alignScans(const slam::LaserScan& a, const slam::LaserScan& b, const Pose2D& laser_in_base,
+                                 const Pose2D& seed, const ScanRelationParams& params, double* inlier_share) {
+  return alignClouds(cloudOf(a, laser_in_base, params.max_range), cloudOf(b, laser_in_base, params.max_range), seed, params,
+                     inlier_share);
+}
+
+
+std::optional<Relation> scanCheckedRelation(const slam::RobotLog& log, size_t i, size_t j, const ScanRelationParams& params) {
+  // Each scan's points and wall normals once, for all seven alignments.
+  const Cloud a = cloudOf(log.records.at(i).scan, log.laser_in_base, params.max_range);
+  const Cloud b = cloudOf(log.records.at(j).scan, log.laser_in_base, params.max_range);
+  const Pose2D guess = log.records[i].reference.inverse().compose(log.records[j].reference);
+  const auto pose = checkedAlignment(a, b, guess, params);
+  if (!pose) return std::nullopt;
+  return Relation{i, j, *pose};
+}
+
+std::optional<Pose2D> localMapRelation(const slam::RobotLog& log, const std::vector<std::pair<size_t, Pose2D>>& scans_a,
+                                       const std::vector<std::pair<size_t, Pose2D>>& scans_b, const Pose2D& guess,
+                                       const ScanRelationParams& params) {
+  return checkedAlignment(localCloud(log, scans_a, params.max_range), localCloud(log, scans_b, params.max_range), guess, params);
 }
 
 ScanRelations scanCheckedRelations(const slam::RobotLog& log, size_t count, unsigned seed, const ScanRelationParams& params) {

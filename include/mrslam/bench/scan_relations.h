@@ -56,6 +56,14 @@ ScanRelations scanCheckedRelations(const slam::RobotLog& log, size_t count, unsi
 // with the reference's relative pose.
 std::optional<Relation> scanCheckedRelation(const slam::RobotLog& log, size_t i, size_t j, const ScanRelationParams& params = {});
 
+// The same checks between two local maps: the scans of `log` listed in scans_a (record index,
+// pose in a's frame) against those in scans_b: the pose of b's frame in a's, when the two fix
+// it, starting from `guess`. Two robots rarely scan one place from near the same pose; the few
+// scans around each see more of the walls both saw.
+std::optional<Pose2D> localMapRelation(const slam::RobotLog& log, const std::vector<std::pair<size_t, Pose2D>>& scans_a,
+                                       const std::vector<std::pair<size_t, Pose2D>>& scans_b, const Pose2D& guess,
+                                       const ScanRelationParams& params = {});
+
 // Point-to-line ICP of scan `b` onto scan `a` (both with the laser at `laser_in_base`): the robot
 // pose at b in the robot frame at a, starting from `seed`; nothing when too few points pair up
 // or the pairs leave a direction free (min_constraint).
