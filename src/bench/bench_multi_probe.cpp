@@ -31,7 +31,6 @@
 #include <cmath>
 #include <csignal>
 #include <fstream>
-#include <future>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -135,8 +134,6 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mrslam_bench_multi_probe: cannot read the log %s\n", argv[3]);
     return 2;
   }
-  std::future<mrslam::slam::RobotLog> reading;
-  if (argc == 4) reading = std::async(std::launch::async, [path = std::string(argv[3])] { return mrslam::slam::readRobotLog(path); });
   ros::NodeHandle nh;
   std::mutex mutex;
   std::map<int, mrslam::bench::RobotTrack> tracks;
@@ -218,10 +215,11 @@ int main(int argc, char** argv) {
   const ros::WallTime start = ros::WallTime::now();
   while (!g_told_to_finish && (ros::WallTime::now() - start).toSec() < seconds) ros::WallDuration(0.2).sleep();
   const double wall = (ros::WallTime::now() - start).toSec();
+  // Read once the robots are done (a second or two of a core), not while they run.
   std::optional<mrslam::slam::RobotLog> log;
-  if (reading.valid()) {
+  if (argc == 4) {
     try {
-      log = reading.get();
+      log = mrslam::slam::readRobotLog(argv[3]);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "mrslam_bench_multi_probe: %s: %s\n", argv[3], e.what());
       return 2;
