@@ -283,17 +283,51 @@ TEST(Verification, AcceptsTheTruthRejectsAWrongPoseAndAnotherBuilding) {
   const cv::Mat t = intelCrop();
   const SimilarityIndex same(t, t, 0);
   VerificationParams params;
-  EXPECT_TRUE(verify(same.evaluate({0, {0, 0}}), 0.05, 1.0, 1000.0, 0.0, 0.0, params).accepted);
-  const Verdict wrong = verify(same.evaluate({90 * kDeg, {300, 0}}), 0.05, 1.0, 1000.0, 0.0, 0.0, params);
+  PoseFigures figures;  // distinct, unambiguous, nothing seen through, a short reach
+  figures.smaller_map_walls = 1000.0;
+  EXPECT_TRUE(verify(same.evaluate({0, {0, 0}}), 0.05, figures, params).accepted);
+  const Verdict wrong = verify(same.evaluate({90 * kDeg, {300, 0}}), 0.05, figures, params);
   EXPECT_FALSE(wrong.accepted);
   const OccupancyGrid aces = loadMap(test::referenceMap("aces"));
   const cv::Mat other = toTernary(bench::cropGrid(aces, 400, 400, 300, 300));
   const SimilarityIndex different(t, other, 0);
   const SearchResult best = different.search({0, {0, 0}}, 20, kDeg, 3);
-  const Verdict v = verify(best.counts, 0.05, 1.0, 1000.0, 0.0, 0.0, params);
+  const Verdict v = verify(best.counts, 0.05, figures, params);
   EXPECT_FALSE(v.accepted);
   EXPECT_FALSE(v.reason.empty());
   EXPECT_DOUBLE_EQ(fusedEntropyIncrease(same.evaluate({0, {0, 0}})), 0.0);
+}
+
+// A map sharing only a short stretch of wall with another that reaches far beyond it: the
+// heading the stretch fixes carries to the far walls, and the pose is refused for it, as it is
+// for a reach that cannot be measured (no shared wall).
+TEST(Verification, ASharedStubThatFixesTooLittleOfTheMapIsRejected) {
+  // A: one wall 40 cells long. B: the same wall and, 400 cells away, a room's worth of walls.
+  cv::Mat a(600, 600, CV_8U, cv::Scalar(kFreeCell)), b = a.clone();
+  cv::line(a, {100, 100}, {140, 100}, cv::Scalar(kOccupiedCell));
+  cv::line(b, {100, 100}, {140, 100}, cv::Scalar(kOccupiedCell));
+  cv::rectangle(b, {100, 480}, {160, 540}, cv::Scalar(kOccupiedCell));
+  const SimilarityIndex index(a, b, 0);
+  const double lever = index.lever({0, {0, 0}});
+  // The shared wall's radius of gyration is 40 / sqrt(12) = 11.5 cells; most of B lies ~400
+  // cells from it.
+  EXPECT_GT(lever, 30.0);
+  // The same wall alone reaches no further than itself.
+  const SimilarityIndex wall_only(a, a, 0);
+  EXPECT_LT(wall_only.lever({0, {0, 0}}), 2.0);
+  VerificationParams params;
+  PoseFigures figures;
+  figures.smaller_map_walls = 40;
+  figures.lever = lever;
+  const SimilarityCounts counts = wall_only.evaluate({0, {0, 0}});
+  params.min_shared_wall_m = 0;  // the stub alone is judged here
+  const Verdict v = verify(counts, 0.05, figures, params);
+  EXPECT_FALSE(v.accepted);
+  EXPECT_NE(v.reason.find("fix too little of the map"), std::string::npos) << v.reason;
+  figures.lever = wall_only.lever({0, {0, 0}});
+  EXPECT_TRUE(verify(counts, 0.05, figures, params).accepted) << verify(counts, 0.05, figures, params).reason;
+  figures.lever = SimilarityIndex(a, cv::Mat(600, 600, CV_8U, cv::Scalar(kFreeCell)), 0).lever({0, {0, 0}});
+  EXPECT_FALSE(verify(counts, 0.05, figures, params).accepted) << "a reach that cannot be measured passed";
 }
 
 TEST(CorrelationSearch, FindsAKnownTranslationAtAKnownRotation) {

@@ -481,7 +481,7 @@ TEST(MergeCli, RejectedMergeIsNotAnError) {
   EXPECT_NE(r.output.find("\"accepted\": false"), std::string::npos) << r.output;
   // Every check's figure is printed, so a user sees which one failed and by how much.
   for (const char* key : {"wall_agreement", "shared_wall_m", "shared_wall_fraction", "entropy_increase",
-                          "distinctiveness", "ambiguity", "seen_through", "reason"})
+                          "distinctiveness", "ambiguity", "seen_through", "lever", "reason"})
     EXPECT_NE(r.output.find("\"" + std::string(key) + "\": "), std::string::npos) << key << ": " << r.output;
 }
 

@@ -387,7 +387,7 @@ int main(int argc, char** argv) {
   std::ofstream csv;
   if (!csv_path.empty()) {
     csv.open(csv_path);
-    csv << "tool,kind,band,overlap,pair,a_cells,b_cells,accepted,correct,yaw_err_deg,cells_err,time_ms,reason,V,wall_agreement,shared_wall_m,entropy_increase,distinctiveness,shared_wall_fraction,ambiguity,seen_through,pose_right\n";
+    csv << "tool,kind,band,overlap,pair,a_cells,b_cells,accepted,correct,yaw_err_deg,cells_err,time_ms,reason,V,wall_agreement,shared_wall_m,entropy_increase,distinctiveness,shared_wall_fraction,ambiguity,seen_through,lever,pose_right\n";
   }
   for (const auto& [tool_name, tool] : tools) {
     std::map<std::string, std::vector<Outcome>> by_band;
@@ -403,7 +403,7 @@ int main(int argc, char** argv) {
             << o.correct << "," << o.yaw_err_deg << "," << o.cells_err << "," << o.time_ms << ",\"" << o.reason << "\"," << o.verdict.acceptance << ","
             << o.verdict.wall_agreement << "," << o.verdict.shared_wall_m << "," << o.verdict.entropy_increase << ","
             << o.verdict.distinctiveness << "," << o.verdict.shared_wall_fraction << "," << o.verdict.ambiguity;
-        csv << "," << o.verdict.seen_through << "," << o.pose_right << "\n";
+        csv << "," << o.verdict.seen_through << "," << o.verdict.lever << "," << o.pose_right << "\n";
       }
     }
     std::printf("## %s\n\n| overlap | pairs | correct | rejected | wrong accepts | false accepts | median ms | p95 ms |\n"

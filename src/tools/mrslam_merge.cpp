@@ -57,7 +57,7 @@ std::string jsonChecks(const fusion::Verdict& v) {
       {"wall_agreement", v.wall_agreement},     {"shared_wall_m", v.shared_wall_m},
       {"shared_wall_fraction", v.shared_wall_fraction}, {"entropy_increase", v.entropy_increase},
       {"distinctiveness", v.distinctiveness},   {"ambiguity", v.ambiguity},
-      {"seen_through", v.seen_through}};
+      {"seen_through", v.seen_through}, {"lever", v.lever}};
   std::string out;
   for (const auto& [key, value] : figures) {
     char number[32] = "null";

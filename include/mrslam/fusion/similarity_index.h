@@ -58,6 +58,13 @@ class SimilarityIndex {
 
   SimilarityCounts evaluate(const CellTransform& transform) const;
 
+  // How far B's obstacles reach beyond the ones that meet A's at `transform` (those counted in
+  // occupied_agree): the 90th percentile of their distances from the shared obstacles' centre
+  // over the shared obstacles' radius of gyration (infinity with fewer than two shared). A
+  // heading fixed by the shared walls to a cell over their spread puts B's far walls about
+  // this many cells off.
+  double lever(const CellTransform& transform) const;
+
   // Centre of B's obstacles (cell coordinates of B), the pivot of rotation steps.
   const cv::Point2d& obstacleCentre() const { return center_b_; }
 

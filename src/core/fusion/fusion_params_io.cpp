@@ -94,6 +94,7 @@ std::map<std::string, Field> fields(FusionParams& p) {
       {"max_ambiguity", field(v.max_ambiguity, 0, kBig)},
       {"ambiguity_weight_factor", field(v.ambiguity_weight_factor, 1, kBig)},
       {"max_seen_through", field(v.max_seen_through, 0, 1)},
+      {"max_lever", field(v.max_lever, 1, kBig)},
   };
 }
 

@@ -361,7 +361,9 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
     return f.held ? held_checks : params.verification;
   };
   auto plausible = [&](const SearchResult& f) {
-    return verify(f.counts, a.resolution, 1.0, smaller_walls, 0.0, 0.0, checks(f)).accepted;
+    PoseFigures counts_only;
+    counts_only.smaller_map_walls = smaller_walls;
+    return verify(f.counts, a.resolution, counts_only, checks(f)).accepted;
   };
   result.set_aside = bringBestPlausibleToFront(finals, params.disagreement_weight, plausible);
   if (finals.empty()) {
@@ -371,9 +373,13 @@ FusionResult searchAndVerify(const OccupancyGrid& a, const OccupancyGrid& b, con
     const double rivals = ambiguity(finals, a.resolution, params, plausible);
     clock.lap("polish");
     result.cells = best.transform;
-    const double seen_through = SeeThroughCheck(im.a, im.b).seenThrough(best.transform);
-    result.verdict = verify(best.counts, a.resolution, distinctiveness(full, best, a.resolution, params),
-                            smaller_walls, rivals, seen_through, checks(best));
+    PoseFigures figures;
+    figures.distinctiveness = distinctiveness(full, best, a.resolution, params);
+    figures.smaller_map_walls = smaller_walls;
+    figures.ambiguity = rivals;
+    figures.seen_through = SeeThroughCheck(im.a, im.b).seenThrough(best.transform);
+    figures.lever = full.lever(best.transform);
+    result.verdict = verify(best.counts, a.resolution, figures, checks(best));
     result.accepted = result.verdict.accepted;
     result.pose = poseFromCells(a, b, result.cells);
     clock.lap("verify");

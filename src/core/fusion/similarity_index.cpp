@@ -1,6 +1,8 @@
 #include "mrslam/fusion/similarity_index.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "mrslam/fusion/ternary_image.h"
@@ -84,6 +86,31 @@ void SimilarityIndex::accumulate(const std::vector<cv::Point2f>& points,
       out.free_conflict += w * h[kOccupied];
     }
   }
+}
+
+double SimilarityIndex::lever(const CellTransform& transform) const {
+  std::vector<cv::Point2d> placed, shared;
+  placed.reserve(occupied_b_.size());
+  for (const auto& p : occupied_b_) {
+    placed.push_back(transform.apply(cv::Point2d(p)));
+    const double x = std::floor(placed.back().x), y = std::floor(placed.back().y);
+    if (x < 0 || y < 0 || x >= lookup_a_.cols || y >= lookup_a_.rows) continue;  // also NaN
+    const uint8_t cls = lookup_a_.at<uint8_t>(static_cast<int>(y), static_cast<int>(x));
+    if (cls == kOccupied || cls == kNearOccupied) shared.push_back(placed.back());
+  }
+  if (shared.size() < 2) return std::numeric_limits<double>::infinity();
+  cv::Point2d centre(0, 0);
+  for (const auto& q : shared) centre += q;
+  centre /= static_cast<double>(shared.size());
+  double spread = 0;
+  for (const auto& q : shared) spread += (q - centre).dot(q - centre);
+  const double gyration = std::sqrt(spread / static_cast<double>(shared.size()));
+  std::vector<double> reach;
+  reach.reserve(placed.size());
+  for (const auto& q : placed) reach.push_back(cv::norm(q - centre));
+  const auto far = reach.begin() + static_cast<std::ptrdiff_t>(0.9 * static_cast<double>(reach.size() - 1));
+  std::nth_element(reach.begin(), far, reach.end());
+  return gyration > 0 ? *far / gyration : std::numeric_limits<double>::infinity();
 }
 
 SimilarityCounts SimilarityIndex::evaluate(const CellTransform& transform) const {

@@ -27,14 +27,13 @@ double fusedEntropyIncrease(const SimilarityCounts& k) {
   return h_fused - 0.5 * (h_a + h_b);
 }
 
-Verdict verify(const SimilarityCounts& counts, double resolution, double distinctiveness,
-               double smaller_map_walls, double ambiguity, double seen_through,
-               const VerificationParams& p) {
+Verdict verify(const SimilarityCounts& counts, double resolution, const PoseFigures& f, const VerificationParams& p) {
   Verdict v;
-  v.seen_through = seen_through;
-  v.ambiguity = ambiguity;
-  v.shared_wall_fraction = smaller_map_walls > 0 ? counts.occupied_agree / smaller_map_walls : 0.0;
-  v.distinctiveness = distinctiveness;
+  v.seen_through = f.seen_through;
+  v.ambiguity = f.ambiguity;
+  v.lever = f.lever;
+  v.shared_wall_fraction = f.smaller_map_walls > 0 ? counts.occupied_agree / f.smaller_map_walls : 0.0;
+  v.distinctiveness = f.distinctiveness;
   v.acceptance = counts.acceptance();
   v.wall_agreement = counts.wallAgreement();
   v.shared_wall_m = counts.occupied_agree * resolution;
@@ -53,8 +52,11 @@ Verdict verify(const SimilarityCounts& counts, double resolution, double distinc
     why << "wall agreement " << v.wall_agreement << " < " << p.min_wall_agreement;
   else if (v.entropy_increase > p.max_entropy_increase)
     why << "entropy increase " << v.entropy_increase << " bits > " << p.max_entropy_increase;
-  else if (seen_through > p.max_seen_through)
-    why << "free space seen through the other map's walls (" << seen_through << " > " << p.max_seen_through << ")";
+  else if (v.seen_through > p.max_seen_through)
+    why << "free space seen through the other map's walls (" << v.seen_through << " > " << p.max_seen_through << ")";
+  else if (!(v.lever <= p.max_lever))
+    why << "the shared walls fix too little of the map: its walls reach " << v.lever << " times as far as the shared "
+        << "walls spread (> " << p.max_lever << ")";
   else if (v.ambiguity > p.max_ambiguity)
     why << "ambiguous: another pose scores " << v.ambiguity << " of the best (> " << p.max_ambiguity << ")";
   else if (v.distinctiveness < p.min_distinctiveness)
