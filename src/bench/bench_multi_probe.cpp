@@ -100,7 +100,6 @@ double peakRate(const std::map<std::string, std::vector<std::pair<double, double
   }
   return peak;
 }
-}  // namespace
 
 // With the log the bag was made from: the accepted pair's error against the truth the robots'
 // scans fix where both saw one place (scan_fixed_frame.h) and that truth's own spread, as fields
@@ -116,6 +115,7 @@ std::string scanFixedFields(const mrslam::slam::RobotLog* log, const mrslam::ben
                 e.metres / 0.05, e.yaw_deg, truth->relations, truth->spread_m / 0.05);
   return text;
 }
+}  // namespace
 
 std::atomic<bool> g_told_to_finish{false};
 void finishNow(int) { g_told_to_finish = true; }
@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
   }
   const int robots = std::atoi(argv[1]);
   const double seconds = std::atof(argv[2]);
-  // Read while the robots run (a few seconds), so that no pose published meanwhile is missed.
+  // A log that cannot be read is refused before the run, not after it.
   if (argc == 4 && !std::ifstream(argv[3])) {
     std::fprintf(stderr, "mrslam_bench_multi_probe: cannot read the log %s\n", argv[3]);
     return 2;

@@ -228,7 +228,6 @@ Cloud localCloud(const slam::RobotLog& log, const std::vector<std::pair<size_t, 
   return out;
 }
 
-
 }  // namespace
 
 std::optional<Pose2D> alignScans(const slam::LaserScan& a, const slam::LaserScan& b, const Pose2D& laser_in_base,
@@ -236,7 +235,6 @@ std::optional<Pose2D> alignScans(const slam::LaserScan& a, const slam::LaserScan
   return alignClouds(cloudOf(a, laser_in_base, params.max_range), cloudOf(b, laser_in_base, params.max_range), seed, params,
                      inlier_share);
 }
-
 
 std::optional<Relation> scanCheckedRelation(const slam::RobotLog& log, size_t i, size_t j, const ScanRelationParams& params) {
   // Each scan's points and wall normals once, for all seven alignments.
