@@ -312,6 +312,7 @@ TEST(Verification, ASharedStubThatFixesTooLittleOfTheMapIsRejected) {
   // The shared wall's radius of gyration is 40 / sqrt(12) = 11.5 cells; most of B lies ~400
   // cells from it.
   EXPECT_GT(lever, 30.0);
+  EXPECT_TRUE(std::isinf(index.lever({std::nan(""), {0, 0}}))) << "a pose that is not a number places nothing";
   // The same wall alone reaches no further than itself.
   const SimilarityIndex wall_only(a, a, 0);
   EXPECT_LT(wall_only.lever({0, {0, 0}}), 2.0);

@@ -94,7 +94,7 @@ double SimilarityIndex::lever(const CellTransform& transform) const {
   for (const auto& p : occupied_b_) {
     placed.push_back(transform.apply(cv::Point2d(p)));
     const double x = std::floor(placed.back().x), y = std::floor(placed.back().y);
-    if (x < 0 || y < 0 || x >= lookup_a_.cols || y >= lookup_a_.rows) continue;  // also NaN
+    if (!(x >= 0 && y >= 0 && x < lookup_a_.cols && y < lookup_a_.rows)) continue;  // outside A, or NaN
     const uint8_t cls = lookup_a_.at<uint8_t>(static_cast<int>(y), static_cast<int>(x));
     if (cls == kOccupied || cls == kNearOccupied) shared.push_back(placed.back());
   }
