@@ -2,9 +2,10 @@
 // all under one master, each running robot.launch (front end, map share, map merge).
 //
 // Ground truth: each robot's map frame placed in the log's world frame by fitting its published
-// poses to the reference poses in the bag (mrslam/bench/peer_frame_truth.h). Each pair's line
-// also gives its error against a second truth, the one the robots' scans fix where both saw one
-// place (mrslam/bench/scan_fixed_frame.h), with that truth's spread: printed, not checked.
+// poses to the reference poses in the bag (mrslam/bench/peer_frame_truth.h). After the checks,
+// one more line per merged pair gives its error against a second truth, the one the robots'
+// scans fix where both saw one place (mrslam/bench/scan_fixed_frame.h), with that truth's
+// spread: printed, not checked.
 //
 // Checks: every merger accepts every peer within 1 degree and 2 cells of the truth (the cells
 // measured where the peer's map lands: at the centre of its trajectory), read once the bag has

@@ -67,8 +67,7 @@ std::vector<std::pair<size_t, Pose2D>> localMap(const TrackRecords& records, siz
   std::vector<std::pair<size_t, Pose2D>> out{{records[k].first, Pose2D{}}};
   for (int step : {-1, 1}) {
     double path = 0;
-    for (size_t m = k; ; ) {
-      if ((step < 0 && m == 0) || (step > 0 && m + 1 == records.size())) break;
+    for (size_t m = k; step < 0 ? m > 0 : m + 1 < records.size();) {
       const size_t next = step < 0 ? m - 1 : m + 1;
       path += std::hypot(records[next].second.x - records[m].second.x, records[next].second.y - records[m].second.y);
       if (path > reach) break;

@@ -51,7 +51,8 @@ std::string jsonString(const std::string& s) {
 }
 
 // Every check's figure (verification.h), so a user sees how close a verdict was; a figure
-// that is not a number (never expected) is written as null, which JSON can hold.
+// that is not finite (the lever of a pose that shares no wall) is written as null, which JSON
+// can hold.
 std::string jsonChecks(const fusion::Verdict& v) {
   const std::pair<const char*, double> figures[] = {
       {"wall_agreement", v.wall_agreement},     {"shared_wall_m", v.shared_wall_m},
