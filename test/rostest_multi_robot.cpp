@@ -38,6 +38,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -473,6 +474,32 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
           EXPECT_GE(robots[n].peers[m].link_silent, 0.0) << n << " measures no link to " << m;
           EXPECT_LT(robots[n].peers[m].link_silent, 10.0) << n << "'s link to " << m << " silent";
         }
+  }
+
+  // A subscriber that connects now (the maps stopped changing with the bag; keyframes every
+  // 3 s) hears every robot at once: a share publisher sends its last share to each new
+  // subscriber, as a merger re-making its subscriptions after an outage needs. Before, the
+  // first share came with the next keyframe, up to one period later (30 s by default). Twice,
+  // so that keyframes falling by chance within the second cannot pass the check for it.
+  // roscpp keeps one subscription per topic per process, which a second subscriber would join
+  // on its open connections: the traffic count (new maps only, none since the bag ended) goes.
+  traffic_sub.shutdown();
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    std::mutex heard_mutex;
+    std::map<std::string, double> first_heard;  // robot -> s after subscribing
+    const ros::WallTime subscribed = ros::WallTime::now();
+    ros::Subscriber newcomer = nh.subscribe<mrslam::CompressedMapShare>(
+        "/mrslam/map_share_z", 10, [&](const mrslam::CompressedMapShare::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(heard_mutex);
+          if (std::count(names.begin(), names.end(), m->robot_id) && !first_heard.count(m->robot_id))
+            first_heard[m->robot_id] = (ros::WallTime::now() - subscribed).toSec();
+        });
+    ros::WallDuration(1.0).sleep();
+    newcomer.shutdown();
+    std::lock_guard<std::mutex> lock(heard_mutex);
+    for (const auto& n : names)
+      EXPECT_TRUE(first_heard.count(n)) << n << " sent nothing to a new subscriber within 1 s (attempt " << attempt + 1
+                                        << "): it waited for its next keyframe";
   }
 
   // OctoMap export of robot1's merged map through the service.

@@ -6,8 +6,10 @@
 //     object the mapping nodelet published (received by pointer in the same manager), inside
 //     mrslam::SharedMap without a copy.
 // Every MapMergeNodelet takes both. A map unchanged for share_keyframe_period (wall clock) is
-// sent again with the same version: peers that missed it (a lossy link, a late joiner) get it,
-// and peers can tell a robot whose map did not change from one whose link is down.
+// sent again with the same version: peers that missed it (a lossy link) get it, and peers can
+// tell a robot whose map did not change from one whose link is down. A subscriber that connects
+// (a late joiner, or a merger re-making its subscriptions after an outage) is sent the last
+// share at once, to it alone, instead of waiting up to a keyframe period for the next one.
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <mrslam/CompressedMapShare.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -47,10 +49,13 @@ class MapShareNodelet : public nodelet::Nodelet {
     // Every share is the whole map, so a peer needs only the newest: a queue of one per peer.
     // A longer queue fills while a link is down and, when it returns, sends every stale map
     // ahead of the newest over a slow link (1 Mbit/s shared with the robot's other traffic).
+    const ros::SubscriberStatusCallback greet = [this](const ros::SingleSubscriberPublisher& subscriber) {
+      onSubscriberConnect(subscriber);
+    };
     if (compress_)
-      share_pub_ = nh.advertise<CompressedMapShare>(compressed_topic, 1);
+      share_pub_ = nh.advertise<CompressedMapShare>(compressed_topic, 1, greet);
     else
-      share_pub_ = nh.advertise<SharedMap>(topic, 1);
+      share_pub_ = nh.advertise<SharedMap>(topic, 1, greet);
     map_sub_ = nh.subscribe("map", 1, &MapShareNodelet::onMap, this);
     pose_sub_ = nh.subscribe("pose", 1, &MapShareNodelet::onPose, this);
     timer_ = nh.createTimer(ros::Duration(1.0 / std::max(0.01, rate)), &MapShareNodelet::onTimer, this);
@@ -82,6 +87,19 @@ class MapShareNodelet : public nodelet::Nodelet {
     send(share);
   }
 
+  // A new subscriber gets the last share sent (the newest: send_mutex_ orders it after every
+  // share already sent, so a peer never receives an older version after a newer one). Without
+  // it, a merger whose link came back after an outage heard an unchanged map only at the next
+  // keyframe, up to share_keyframe_period (30 s) after it had reconnected.
+  void onSubscriberConnect(const ros::SingleSubscriberPublisher& subscriber) {
+    std::lock_guard<std::mutex> send_lock(send_mutex_);
+    if (!last_sent_) return;
+    if (compress_)
+      subscriber.publish(*last_compressed_);
+    else
+      subscriber.publish(*last_sent_);
+  }
+
   void onKeyframeTimer(const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> send_lock(send_mutex_);
     if (!last_sent_ || (ros::WallTime::now() - last_sent_time_).toSec() < keyframe_period_) return;
@@ -96,10 +114,12 @@ class MapShareNodelet : public nodelet::Nodelet {
   // send_mutex_ held: shares leave in version order (a keyframe never overtakes a newer map,
   // which a peer would take for a restart).
   void sendLocked(const SharedMap::ConstPtr& share) {
-    if (compress_)
-      share_pub_.publish(compressed(*share));
-    else
+    if (compress_) {
+      if (share != last_sent_ || !last_compressed_) last_compressed_ = compressed(*share);  // a keyframe reuses it
+      share_pub_.publish(last_compressed_);
+    } else {
       share_pub_.publish(share);
+    }
     last_sent_ = share;
     last_sent_time_ = ros::WallTime::now();
   }
@@ -118,7 +138,8 @@ class MapShareNodelet : public nodelet::Nodelet {
   }
 
   std::mutex mutex_;  // guards latest_map_, shared_map_, pose_ and version_ (callbacks and the share timer)
-  std::mutex send_mutex_;  // orders sending; guards last_sent_ and last_sent_time_ (both timers)
+  std::mutex send_mutex_;  // orders sending; guards last_sent_, last_compressed_ and last_sent_time_
+                           // (both timers and the connect callback)
   std::string robot_id_;
   bool compress_ = true;
   int compression_level_ = 1;
@@ -131,6 +152,7 @@ class MapShareNodelet : public nodelet::Nodelet {
   ros::WallTimer keyframe_timer_;
   double keyframe_period_ = 30.0;  // s, wall clock; 0: never re-sent
   SharedMap::ConstPtr last_sent_;
+  CompressedMapShare::ConstPtr last_compressed_;  // last_sent_ as it went out (compress_ only)
   ros::WallTime last_sent_time_;
 };
 
