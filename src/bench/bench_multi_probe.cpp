@@ -11,7 +11,8 @@
 // poses came after their scans arrived (wall s) and how many scans waited for, or went without,
 // the gyro; from its merger's: how often it re-made its share subscriptions. One "pair robotA <-
 // robotB ..." line per ordered pair it saw in a merge_status (accepted, delay, correct, stale:
-// as the last status said; when not accepted, the merger's attempts, the relays it tried and
+// as the last status said; when accepted, also how long after the probe started the merger
+// first heard the peer, heard_after_s, -1 for not since; when not accepted, the merger's attempts, the relays it tried and
 // its last reason; when accepted, what led there: when the merger stamped the peer's first map
 // on its own clock, the first try's delay, the tries up to the accept and the last rejection's
 // reason).
@@ -75,6 +76,9 @@ struct PairStatus {
   bool current = false;  // the estimate was made on both maps as they are now
   bool stale = false;    // the merger has heard nothing from the peer for stale_after
   double heard_s_ago = -1;  // wall s since the merger last heard from the peer
+  // Wall s from the probe's start to the first time the merger heard the peer after it (-1:
+  // not since): run as a link comes back, how long the peer took to be heard again.
+  double heard_after = -1;
   double link_silent = -1;  // s since data last arrived on the merger's connection to the peer (-1: none open)
   std::string attempts, why;  // when not accepted: how often the merger tried, and its last reason
   std::string relays;         // when not accepted: each via tried, "via:tries:accepted|rejected"
@@ -135,6 +139,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   ros::NodeHandle nh;
+  const ros::WallTime start = ros::WallTime::now();
   std::mutex mutex;
   std::map<int, mrslam::bench::RobotTrack> tracks;
   std::map<std::pair<int, std::string>, PairStatus> pairs;
@@ -169,6 +174,9 @@ int main(int argc, char** argv) {
             p.accepted = v["accepted"] == "True";
             p.stale = v["stale"] == "True";
             p.heard_s_ago = v.count("heard_s_ago") ? std::stod(v["heard_s_ago"]) : -1.0;
+            const double since_start = (ros::WallTime::now() - start).toSec();
+            if (p.heard_after < 0 && p.heard_s_ago >= 0 && p.heard_s_ago < since_start)
+              p.heard_after = since_start - p.heard_s_ago;
             p.link_silent = v.count("link_silent_s") ? std::stod(v["link_silent_s"]) : -1.0;
             p.attempts = v["attempts"];
             p.relays = compactRelays(v["relays"]);
@@ -212,7 +220,6 @@ int main(int argc, char** argv) {
   }));
   ros::AsyncSpinner spinner(2);
   spinner.start();
-  const ros::WallTime start = ros::WallTime::now();
   while (!g_told_to_finish && (ros::WallTime::now() - start).toSec() < seconds) ros::WallDuration(0.2).sleep();
   const double wall = (ros::WallTime::now() - start).toSec();
   // Read once the robots are done (a second or two of a core), not while they run.
@@ -273,8 +280,10 @@ int main(int argc, char** argv) {
     ++accepted, delays.push_back(value.delay);
     if (!world[key.first] || world.count(peer) == 0 || !world[peer]) {
       ++unchecked;
-      std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d heard_s_ago=%.1f link_silent_s=%.1f\n",
-                  key.first, key.second.c_str(), value.delay, value.stale ? 1 : 0, value.heard_s_ago, value.link_silent);
+      std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d heard_s_ago=%.1f heard_after_s=%.1f "
+                  "link_silent_s=%.1f\n",
+                  key.first, key.second.c_str(), value.delay, value.stale ? 1 : 0, value.heard_s_ago, value.heard_after,
+                  value.link_silent);
       continue;
     }
     const auto e = mrslam::bench::peerFrameError(value.pose, *world[key.first], *world[peer], tracks[peer]);
@@ -285,10 +294,10 @@ int main(int argc, char** argv) {
     // bar of MergeRegressions and of the multi-run truth in bench_merge).
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
-    std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d heard_s_ago=%.1f link_silent_s=%.1f "
-                "deg=%.2f cells=%.2f truth_bar_cells=%.2f truth=%s%s first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
+    std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d heard_s_ago=%.1f heard_after_s=%.1f "
+                "link_silent_s=%.1f deg=%.2f cells=%.2f truth_bar_cells=%.2f truth=%s%s first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
                 key.first, key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.heard_s_ago,
-                value.link_silent, e.yaw_deg, cells, truth_bar, truth.c_str(),
+                value.heard_after, value.link_silent, e.yaw_deg, cells, truth_bar, truth.c_str(),
                 scanFixedFields(log ? &*log : nullptr, tracks[key.first], tracks[peer], value.pose).c_str(),
                 value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
                 value.last_rejection.empty() ? "none" : value.last_rejection.c_str());
