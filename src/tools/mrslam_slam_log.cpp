@@ -174,7 +174,8 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
         << " score, " << s.loop_rejected_ambiguous << " ambiguous, " << s.loop_rejected_icp << " ICP; "
         << s.loop_unconfirmed << " never confirmed; " << s.loop_dropped << " dropped at the optimum); "
         << s.optimizations << " optimisations, " << s.optimization_failures << " failed; " << s.nodes_refined
-        << " nodes refined at the end (" << s.nodes_reseated << " after a correlative search); "
+        << " nodes refined at the end in " << s.refine_rounds << " rounds (" << s.nodes_reseated
+        << " after a correlative search); "
         << s.stretches_reanchored << " stretches turned back";
   std::cerr << out.str() << "\n";
   if (offered > 10 && s.used * 2 < offered)

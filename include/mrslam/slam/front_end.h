@@ -160,7 +160,10 @@ struct GraphParams {
   std::string solver = "ceres";          // or "mrpt"
   int solver_iterations = 50;
   // When the run ends (finish()), every node's scan is aligned to all the others' (pose_refinement.h).
-  int refine_rounds = 3;                 // 0: off
+  int refine_rounds = 3;                 // rounds for any graph (0: off)...
+  int refine_max_rounds = 20;            // ...a smaller one up to this many...
+  int refine_node_rounds = 5000;         // ...as many as this many node alignments in all allow...
+  double refine_settled_rms = 0.005;     // m: ...ending after a round that moved the nodes less (0: never)
   double refine_max_correspondence = 0.2;  // m: ICP's first pairing distance (then down to
                                            // icp_min_correspondence)
   double refine_min_goodness = 0.5;      // share of a node's points paired, or it stays where it was
@@ -258,6 +261,7 @@ struct FrontEndStats {
   size_t seeds_alone = 0;  // matched by the correlative seed alone (ICP could not confirm it)
   size_t nodes = 0, submaps = 0, submaps_redrawn = 0;
   size_t nodes_refined = 0;  // aligned to the other nodes' scans when the run ended
+  int refine_rounds = 0;     // rounds of that refinement run (it ends early once settled)
   size_t nodes_reseated = 0; // of those, aligned only after a correlative search (pose_refinement.h)
   size_t stretches_reanchored = 0;  // turned back at the end (stretch_reanchor.h)
   size_t loop_attempts = 0, loop_accepted = 0, loop_dropped = 0;  // dropped: found wrong at the optimum

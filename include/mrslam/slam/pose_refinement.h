@@ -22,7 +22,17 @@
 namespace mrslam::slam {
 
 struct NodeRefinementParams {
-  int rounds = 3;                   // 0: off
+  // Rounds (allowedRounds): `rounds` for any graph (0: off); a smaller graph up to `max_rounds`,
+  // as many as `node_rounds` node alignments in all allow. A round costs about as much per node,
+  // and every round moved the nodes of a slow scanner's few (every 5th scan: 90-180) by 1-6 cm
+  // where the first three left a bend (Intel every 5th, phase 3: 0.44 m global error after 3
+  // rounds, 0.35 after 20), while a whole log's many hardly move after three.
+  int rounds = 3;
+  int max_rounds = 3;
+  int node_rounds = 0;
+  // The refinement ends after a round that moved the nodes by at most this much (root mean
+  // square, m; 0: never sooner). ICP's own noise keeps every round moving them by a few mm.
+  double settled_rms = 0.0;
   double max_correspondence = 0.2;  // m: ICP's first pairing distance (halved as it settles)...
   double min_correspondence = 0.03; // m: ...down to this
   int max_iterations = 15;          // ICP's, per node and round (40: as accurate on the bundled
@@ -52,9 +62,13 @@ struct NodeRefinementParams {
 
 struct RefinedPoses {
   std::vector<Pose2D> poses;
+  int rounds = 0;       // rounds run
   size_t moved = 0;     // nodes whose pose changed, in any round, alone or jointly
   size_t reseated = 0;  // of those, nodes any round aligned only after the correlative search
 };
+
+// How many rounds `params` allow for a graph of `nodes` nodes.
+int allowedRounds(const NodeRefinementParams& params, size_t nodes);
 
 // `scans[k]` holds node k's points in its own frame and `poses[k]` its pose in the map. Node 0
 // is the map's origin and stays where it is.

@@ -298,6 +298,9 @@ void GraphSlam::reanchorStretches() {
 void GraphSlam::refineNodes() {
   NodeRefinementParams refinement;
   refinement.rounds = params_.graph.refine_rounds;
+  refinement.max_rounds = params_.graph.refine_max_rounds;
+  refinement.node_rounds = params_.graph.refine_node_rounds;
+  refinement.settled_rms = params_.graph.refine_settled_rms;
   refinement.max_correspondence = params_.graph.refine_max_correspondence;
   refinement.min_correspondence = params_.matcher.min_correspondence;
   refinement.min_goodness = params_.graph.refine_min_goodness;
@@ -319,6 +322,7 @@ void GraphSlam::refineNodes() {
   // the next optimisation starts from them and returns to the graph's optimum.
   poses_ = std::move(refined.poses);
   stats_.nodes_refined = refined.moved;
+  stats_.refine_rounds = refined.rounds;
   stats_.nodes_reseated = refined.reseated;
   followOptimizedPoses();
   ++map_version_;

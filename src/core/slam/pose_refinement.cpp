@@ -82,6 +82,16 @@ std::optional<Pose2D> reseat(const std::vector<const Points2*>& scans, const std
   return best.pose;
 }
 
+// How far the nodes moved from `before` to `after`, root mean square (m).
+double rmsMove(const std::vector<Pose2D>& before, const std::vector<Pose2D>& after) {
+  double sum = 0;
+  for (size_t k = 0; k < before.size(); ++k) {
+    const double dx = after[k].x - before[k].x, dy = after[k].y - before[k].y;
+    sum += dx * dx + dy * dy;
+  }
+  return std::sqrt(sum / static_cast<double>(before.size()));
+}
+
 // One round of aligning each node alone: every node against one snapshot of all the others, so
 // that a node aligned early in the round does not drag the later ones. Adds the nodes placed
 // only after a correlative search to `reseated`.
@@ -115,17 +125,27 @@ void alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>
 
 }  // namespace
 
+int allowedRounds(const NodeRefinementParams& params, size_t nodes) {
+  if (params.rounds < 1 || nodes == 0) return std::max(0, params.rounds);
+  const int by_budget = static_cast<int>(std::min<size_t>(static_cast<size_t>(std::max(0, params.node_rounds)) / nodes, 1000));
+  return std::max(params.rounds, std::min(params.max_rounds, by_budget));
+}
+
 RefinedPoses refineNodePoses(const std::vector<const Points2*>& scans, const std::vector<Pose2D>& poses,
                              const NodeRefinementParams& params) {
   RefinedPoses result{poses, 0};
   if (scans.size() != poses.size() || scans.size() < 2) return result;
   const std::vector<float> reach = params.reseat_xy > 0 ? reaches(scans) : std::vector<float>{};
   std::set<size_t> reseated;
-  for (int round = 0; round < params.rounds; ++round) {
+  const int rounds = allowedRounds(params, scans.size());
+  for (int round = 0; round < rounds; ++round) {
+    const std::vector<Pose2D> before = result.poses;
     alignEachNode(scans, result.poses, reach, params, reseated);
     // Then all nodes at once: an error spanning many nodes (a bend) holds each node where its
     // neighbours are when they are aligned one by one, and moves as a whole jointly.
     for (int solve = 0; solve < params.joint_solves; ++solve) registerJointly(scans, result.poses, params.joint);
+    ++result.rounds;
+    if (rmsMove(before, result.poses) <= params.settled_rms) break;
   }
   result.reseated = reseated.size();
   for (size_t k = 0; k < poses.size(); ++k)
