@@ -11,11 +11,11 @@
 // poses came after their scans arrived (wall s) and how many scans waited for, or went without,
 // the gyro; from its merger's: how often it re-made its share subscriptions. One "pair robotA <-
 // robotB ..." line per ordered pair it saw in a merge_status (accepted, delay, correct, stale:
-// as the last status said; when accepted, also how long after the probe started the merger
-// first heard the peer, heard_after_s, -1 for not since; when not accepted, the merger's attempts, the relays it tried and
-// its last reason; when accepted, what led there: when the merger stamped the peer's first map
-// on its own clock, the first try's delay, the tries up to the accept and the last rejection's
-// reason).
+// as the last status said; when not accepted, the merger's attempts, the relays it tried and
+// its last reason; when accepted, how long after the probe started the merger first heard the
+// peer (heard_after_s, -1: not since) and what led to the accept: when the merger stamped the
+// peer's first map on its own clock, the first try's delay, the tries up to the accept and the
+// last rejection's reason).
 // Given the log the bag was made from (third argument), each accepted pair's line also gives its
 // error against the truth the robots' scans fix (mrslam/bench/scan_fixed_frame.h).
 // The clock it reads is /clock (remap it to follow one robot's clock).
