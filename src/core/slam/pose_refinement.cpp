@@ -128,14 +128,7 @@ void alignEachNode(const std::vector<const Points2*>& scans, std::vector<Pose2D>
 int allowedRounds(const NodeRefinementParams& params, size_t nodes) {
   if (params.rounds < 1 || nodes == 0) return std::max(0, params.rounds);
   const size_t by_budget = static_cast<size_t>(std::max(0, params.node_rounds)) / nodes;
-  const int rounds = std::max(params.rounds, static_cast<int>(std::min<size_t>(std::max(0, params.max_rounds), by_budget)));
-#ifdef MRSLAM_SANITIZER_REFINE_ROUNDS
-  // scripts/sanitize's build only: the rounds after these run the same code again, and under
-  // the sanitizers each costs what ten do without.
-  return std::min(rounds, MRSLAM_SANITIZER_REFINE_ROUNDS);
-#else
-  return rounds;
-#endif
+  return std::max(params.rounds, static_cast<int>(std::min<size_t>(std::max(0, params.max_rounds), by_budget)));
 }
 
 RefinedPoses refineNodePoses(const std::vector<const Points2*>& scans, const std::vector<Pose2D>& poses,
