@@ -166,7 +166,7 @@ struct GraphParams {
   double refine_settled_rms = 0.005;     // m: ...ending after a round that moved the nodes less (0: never)
   double refine_max_correspondence = 0.2;  // m: ICP's first pairing distance (then down to
                                            // icp_min_correspondence)
-  double refine_min_goodness = 0.5;      // share of a node's points paired, or it stays where it was
+  double refine_min_goodness = 0.35;     // share of a node's points paired, or it stays where it was
   double refine_reseat_xy = 0.5;         // m: a node paired less is searched for this far either way...
   double refine_reseat_yaw = 0.35;       // rad: ...and this much turn (0 xy: off)...
   double refine_reseat_margin = 0.1;     // ...and aligned again from where it fits this much better
