@@ -901,7 +901,7 @@ TEST(GraphSlam, TheRefinementMovesNodesThatPairAThirdOfTheirPoints) {
     const double moved = decimatedGlobalError(c.log, 5, c.phase, params);
     params.graph.refine_min_goodness = 0.5;
     const double held = decimatedGlobalError(c.log, 5, c.phase, params);
-    std::printf("%s every 5th, phase %d: global error %.3f m holding nodes paired under half, %.3f m under a third\n",
+    std::printf("%s every 5th, phase %d: global error %.3f m holding nodes that pair under 50 %%, %.3f m under 35 %%\n",
                 c.name, c.phase, held, moved);
     EXPECT_LT(moved, held + 0.02) << c.name << " phase " << c.phase;
     held_sum += held, moved_sum += moved;
