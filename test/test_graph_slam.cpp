@@ -852,8 +852,8 @@ TEST(PoseRefinement, ASmallGraphGetsMoreRoundsThanALargeOne) {
 }
 
 // Intel every 5th scan, phase 3: after three rounds the map still held a bend the next rounds
-// take out (0.44 m global error after 3 rounds, 0.35 m once settled, 20 rounds; 0.30 since nodes
-// pairing a third of their points move too, graph_refine_min_goodness 0.35).
+// take out (0.44 m global error after 3 rounds, 0.35 m once settled, 20 rounds; 0.44 and 0.30
+// since nodes pairing 35-50 % of their points move too, graph_refine_min_goodness 0.35).
 TEST(GraphSlam, ASlowScannersFewNodesAreRefinedUntilTheySettle) {
   const RobotLog every5 = decimate(intelLog(), 5, 3);
   std::vector<Pose2D> reference;
@@ -881,9 +881,9 @@ TEST(GraphSlam, ASlowScannersFewNodesAreRefinedUntilTheySettle) {
   EXPECT_LT(error[1], error[0] - 0.05) << "the rounds after the third did not take out the bend";
 }
 
-// A slow scanner's nodes share little with the other nodes: at every 5th scan many pair a third to
-// a half of their points with them, and the final refinement held those where the graph put them
-// (alone and in the joint step) until graph_refine_min_goodness went from 0.5 to 0.35. The four
+// A slow scanner's nodes share little with the other nodes, and the final refinement held every
+// node that paired less than half its points where the graph put them (alone and in the joint
+// step) until graph_refine_min_goodness went from 0.5 to 0.35. The four
 // worst slow-scanner runs of the README's harness, measured here (in-memory decimation): ACES
 // every 5th, phases 0 and 2, and Intel every 5th, phases 3 and 4.
 TEST(GraphSlam, TheRefinementMovesNodesThatPairAThirdOfTheirPoints) {
