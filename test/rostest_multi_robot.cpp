@@ -67,6 +67,7 @@ struct PeerStatus {
   bool current = false;  // the estimate describes both maps as they are now
   bool stale = false;    // nothing heard from the peer for stale_after
   double link_silent = -2;  // s since data arrived on the connection to the peer (-1: none open; -2: not reported)
+  double link_checked = -2;  // s since the merger last read its share links (-1: never; -2: not reported)
   std::string why;       // the merger's message: its last verdict
 };
 
@@ -172,6 +173,7 @@ class MultiRobotTest : public ::testing::Test {
             p.current = v["estimate_current"] == "True";
             p.stale = v["stale"] == "True";
             if (v.count("link_silent_s")) p.link_silent = std::stod(v["link_silent_s"]);
+            if (v.count("link_checked_s_ago")) p.link_checked = std::stod(v["link_checked_s_ago"]);
             p.why = status.message;
             peers[status.name] = p;
           }
@@ -473,6 +475,10 @@ TEST_F(MultiRobotTest, EveryRobotMergesEveryPeerAtTheTruth) {
           // data arrives on it at least every keyframe period (3 s here).
           EXPECT_GE(robots[n].peers[m].link_silent, 0.0) << n << " measures no link to " << m;
           EXPECT_LT(robots[n].peers[m].link_silent, 10.0) << n << "'s link to " << m << " silent";
+          // The merger reads its links once a second; a reading older than a few seconds is a
+          // check that stopped running, and with it every re-made subscription after an outage.
+          EXPECT_GE(robots[n].peers[m].link_checked, 0.0) << n << " reports no check of its share links";
+          EXPECT_LT(robots[n].peers[m].link_checked, 5.0) << n << "'s check of its share links stopped";
         }
   }
 

@@ -15,7 +15,8 @@
 // its last reason; when accepted, how long after the probe started the merger first heard the
 // peer (heard_after_s, -1: not since), when a status called it stale again after that
 // (stale_again_after_s, -1: never), how old the merger's last status was as the probe ended
-// (status_age_s), and what led to the accept: when the merger stamped the
+// (status_age_s) and how long before it the merger had last read its share links
+// (link_checked_s_ago), and what led to the accept: when the merger stamped the
 // peer's first map on its own clock, the first try's delay, the tries up to the accept and the
 // last rejection's reason).
 // Given the log the bag was made from (third argument), each accepted pair's line also gives its
@@ -87,6 +88,7 @@ struct PairStatus {
   double stale_again_after = -1;
   double last_status_at = -1;
   double link_silent = -1;  // s since data last arrived on the merger's connection to the peer (-1: none open)
+  double link_checked = -1;  // s since the merger last read its share links (once a second; -1: not said)
   std::string attempts, why;  // when not accepted: how often the merger tried, and its last reason
   std::string relays;         // when not accepted: each via tried, "via:tries:accepted|rejected"
   std::string via;            // the peers a relayed pair is placed through (empty: direct)
@@ -187,6 +189,7 @@ int main(int argc, char** argv) {
             if (p.heard_after >= 0 && p.stale && p.stale_again_after < 0) p.stale_again_after = since_start;
             p.last_status_at = since_start;
             p.link_silent = v.count("link_silent_s") ? std::stod(v["link_silent_s"]) : -1.0;
+            p.link_checked = v.count("link_checked_s_ago") ? std::stod(v["link_checked_s_ago"]) : -1.0;
             p.attempts = v["attempts"];
             p.relays = compactRelays(v["relays"]);
             p.why = s.message;
@@ -290,9 +293,9 @@ int main(int argc, char** argv) {
     if (!world[key.first] || world.count(peer) == 0 || !world[peer]) {
       ++unchecked;
       std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=unchecked stale=%d heard_s_ago=%.1f heard_after_s=%.1f "
-                  "stale_again_after_s=%.1f status_age_s=%.1f link_silent_s=%.1f\n",
+                  "stale_again_after_s=%.1f status_age_s=%.1f link_silent_s=%.1f link_checked_s_ago=%.1f\n",
                   key.first, key.second.c_str(), value.delay, value.stale ? 1 : 0, value.heard_s_ago, value.heard_after,
-                  value.stale_again_after, wall - value.last_status_at, value.link_silent);
+                  value.stale_again_after, wall - value.last_status_at, value.link_silent, value.link_checked);
       continue;
     }
     const auto e = mrslam::bench::peerFrameError(value.pose, *world[key.first], *world[peer], tracks[peer]);
@@ -304,9 +307,9 @@ int main(int argc, char** argv) {
     const double fit_rms_cells = std::hypot(rms[key.first], rms[peer]) / 0.05;
     const double truth_bar = std::max(2.0, 2.0 * fit_rms_cells);
     std::printf("pair robot%d <- %s accepted=1 delay_s=%.1f correct=%d stale=%d heard_s_ago=%.1f heard_after_s=%.1f "
-                "stale_again_after_s=%.1f status_age_s=%.1f link_silent_s=%.1f deg=%.2f cells=%.2f truth_bar_cells=%.2f truth=%s%s first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
+                "stale_again_after_s=%.1f status_age_s=%.1f link_silent_s=%.1f link_checked_s_ago=%.1f deg=%.2f cells=%.2f truth_bar_cells=%.2f truth=%s%s first_map_s=%.1f first_try_s=%.1f tries=%d via=%s before=%s\n",
                 key.first, key.second.c_str(), value.delay, right ? 1 : 0, value.stale ? 1 : 0, value.heard_s_ago,
-                value.heard_after, value.stale_again_after, wall - value.last_status_at, value.link_silent, e.yaw_deg, cells, truth_bar, truth.c_str(),
+                value.heard_after, value.stale_again_after, wall - value.last_status_at, value.link_silent, value.link_checked, e.yaw_deg, cells, truth_bar, truth.c_str(),
                 scanFixedFields(log ? &*log : nullptr, tracks[key.first], tracks[peer], value.pose).c_str(),
                 value.first_map_time, value.first_try, value.tries_to_accept, viaField(value.via).c_str(),
                 value.last_rejection.empty() ? "none" : value.last_rejection.c_str());

@@ -193,6 +193,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       link_silent_ = link_silent;
+      last_link_check_ = now;
       for (const auto& [id, link] : link_silent)
         if (silentFor(id, now) > stale_after_ && linkIsDead(link, stale_after_)) dead += (dead.empty() ? "" : ", ") + id;
       if (dead.empty() || now - last_reconnect_ < stale_after_) return;
@@ -618,6 +619,9 @@ class MapMergeNodelet : public nodelet::Nodelet {
       s.add("stale", silent > stale_after_);
       const auto link = link_silent_.find(id);
       s.add("link_silent_s", link != link_silent_.end() && link->second ? *link->second : -1.0);
+      // The links are read once a second: an older reading means the check itself is stuck
+      // (link_silent_s frozen, no re-made subscription), not the peer.
+      s.add("link_checked_s_ago", last_link_check_ > 0 ? ros::WallTime::now().toSec() - last_link_check_ : -1.0);
       array->status.push_back(s);
     }
     status_pub_.publish(diagnostic_msgs::DiagnosticArray::ConstPtr(array));
@@ -737,6 +741,7 @@ class MapMergeNodelet : public nodelet::Nodelet {
   std::optional<std::set<std::string>> master_publishers_;
   std::map<std::string, std::string> publisher_uris_;  // publishing node -> its XML-RPC URI
   std::map<std::string, std::optional<double>> link_silent_;  // peer id -> s since data arrived on its link
+  double last_link_check_ = 0;  // wall s of the last watchShareLinks that read the links
   OpeningSince opening_since_;  // share connections being opened (the diagnostics timer's own)
   double master_asked_ = -1e18;
   double owner_timeout_ = 30.0, stale_after_ = 90.0;
