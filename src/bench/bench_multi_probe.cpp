@@ -15,7 +15,7 @@
 // its last reason; when accepted, how long after the probe started the merger first heard the
 // peer (heard_after_s, -1: not since), when a status called it stale again after that
 // (stale_again_after_s, -1: never), how old the merger's last status was as the probe ended
-// (status_age_s) and how long before it the merger had last read its share links
+// (status_age_s), how long before that status the merger had last read its share links
 // (link_checked_s_ago), and what led to the accept: when the merger stamped the
 // peer's first map on its own clock, the first try's delay, the tries up to the accept and the
 // last rejection's reason).
