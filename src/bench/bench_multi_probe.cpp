@@ -182,14 +182,16 @@ int main(int argc, char** argv) {
             const bool was_accepted = p.accepted;
             p.accepted = v["accepted"] == "True";
             p.stale = v["stale"] == "True";
-            p.heard_s_ago = v.count("heard_s_ago") ? std::stod(v["heard_s_ago"]) : -1.0;
+            // A figure an older merger does not report reads -1.
+            const auto figure = [&v](const char* key) { return v.count(key) ? std::stod(v[key]) : -1.0; };
+            p.heard_s_ago = figure("heard_s_ago");
             const double since_start = (ros::WallTime::now() - start).toSec();
             if (p.heard_after < 0 && p.heard_s_ago >= 0 && p.heard_s_ago < since_start)
               p.heard_after = since_start - p.heard_s_ago;
             if (p.heard_after >= 0 && p.stale && p.stale_again_after < 0) p.stale_again_after = since_start;
             p.last_status_at = since_start;
-            p.link_silent = v.count("link_silent_s") ? std::stod(v["link_silent_s"]) : -1.0;
-            p.link_checked = v.count("link_checked_s_ago") ? std::stod(v["link_checked_s_ago"]) : -1.0;
+            p.link_silent = figure("link_silent_s");
+            p.link_checked = figure("link_checked_s_ago");
             p.attempts = v["attempts"];
             p.relays = compactRelays(v["relays"]);
             p.why = s.message;
