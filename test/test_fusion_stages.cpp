@@ -87,6 +87,45 @@ TEST(DownsampleTernary, EveryBlockOfARealOddSizedCropIsItsMaximum) {
     }
 }
 
+// The fusion's masks are made a row at a time (a 4000 x 4000 map's whole-image masks cost
+// 16 MB of fresh pages each); they must be the whole-image operations they replace.
+TEST(TernaryImage, WallsNearRowByRowAreTheWallsDilatedByOneCell) {
+  const cv::Mat one_wall = (cv::Mat_<uint8_t>(1, 1) << kOccupiedCell);
+  for (const cv::Mat& t : {toTernary(intel()), intelCrop(), one_wall, cv::Mat(intelCrop().row(7))}) {
+    cv::Mat dilated;
+    cv::dilate(t == kOccupiedCell, dilated, cv::Mat::ones(3, 3, CV_8U));
+    int next_row = 0;
+    forEachRowWithWallsNear(t, [&](int y, const uint8_t* cells, const uint8_t* near) {
+      ASSERT_EQ(y, next_row++);
+      ASSERT_EQ(cells, t.ptr<uint8_t>(y));
+      for (int x = 0; x < t.cols; ++x) ASSERT_EQ(near[x], dilated.at<uint8_t>(y, x) ? 1 : 0) << y << "," << x;
+    });
+    EXPECT_EQ(next_row, t.rows);
+  }
+}
+
+TEST(TernaryImage, KeepsEveryStridethFreeCellAndCountsCellsAsAWholeImageMaskDoes) {
+  const cv::Mat t = toTernary(intel());
+  const int free_cells = cv::countNonZero(t == kFreeCell);
+  ASSERT_GT(free_cells, 100000);
+  EXPECT_EQ(countCells(t, kFreeCell), free_cells);
+  EXPECT_EQ(countCells(t, kOccupiedCell), cv::countNonZero(t == kOccupiedCell));
+  std::vector<cv::Point> all;
+  cv::findNonZero(t == kFreeCell, all);  // raster order
+  for (const size_t stride : {size_t{1}, size_t{7}, size_t{64}, size_t{200}, size_t{1000000}}) {
+    std::vector<cv::Point2f> kept;
+    size_t countdown = 1;
+    std::vector<uint8_t> marks(static_cast<size_t>(t.cols));
+    for (int y = 0; y < t.rows; ++y) {
+      for (int x = 0; x < t.cols; ++x) marks[x] = t.at<uint8_t>(y, x) == kFreeCell;
+      keepEveryStrideth(marks.data(), t.cols, y, stride, countdown, kept);
+    }
+    ASSERT_EQ(kept.size(), (all.size() + stride - 1) / stride) << "stride " << stride;
+    for (size_t k = 0; k < kept.size(); ++k)
+      ASSERT_EQ(kept[k], cv::Point2f(all[k * stride].x + 0.5f, all[k * stride].y + 0.5f)) << "stride " << stride;
+  }
+}
+
 TEST(EdgeSmoothing, ThickWallBecomesItsOneCellMiddleCurve) {
   // A real wall band: the obstacles of the crop dilated to ~5 cells, as a noisy laser makes.
   const cv::Mat t = intelCrop();

@@ -8,6 +8,7 @@
 // Gauss-Newton over (theta, tx, ty) converges in a few iterations.
 #pragma once
 
+#include <array>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -16,7 +17,8 @@
 namespace mrslam::fusion {
 
 // Distance (cells) from each cell to the nearest obstacle cell of a ternary image, exact below
-// `reach` and `ceil(reach)` everywhere farther.
+// `reach` and `ceil(reach)` everywhere farther (a reach of at most 10 cells: the polish never
+// reads farther, see chamfer_truncation in config/fusion.yaml).
 cv::Mat truncatedWallDistance(const cv::Mat& ternary, double reach);
 
 class ChamferPolish {
@@ -31,7 +33,12 @@ class ChamferPolish {
   double meanDistance(const CellTransform& transform) const;
 
  private:
-  cv::Mat distance_;                     // A's wall distance transform (cells)
+  // A's distance transform: per cell the squared offset to its nearest wall, as a byte code,
+  // and the distance (cells) each code stands for.
+  cv::Mat squared_offsets_;
+  std::array<float, 256> distance_of_code_;
+  // Bilinear read of that distance at continuous cell coordinates; false off the map.
+  bool distanceAt(double x, double y, float& out) const;
   std::vector<cv::Point2f> walls_b_;     // relative to their centroid
   cv::Point2d centre_b_;
   double truncation_;

@@ -76,7 +76,7 @@ std::map<std::string, Field> fields(FusionParams& p) {
       {"radon_peaks", field(p.radon_peaks, 1, 180)},
       {"refine_radius", field(p.refine_radius, 0, 1000)},
       {"chamfer_polish", flag(p.chamfer_polish)},
-      {"chamfer_truncation", field(p.chamfer_truncation, 0.1, 1000)},
+      {"chamfer_truncation", field(p.chamfer_truncation, 0.1, 8)},
       {"max_free_points", field(p.max_free_points, 0, kBig)},
       {"disagreement_weight", field(p.disagreement_weight, 0, kBig)},
       {"coarse_disagreement_weight", field(p.coarse_disagreement_weight, 0, kBig)},

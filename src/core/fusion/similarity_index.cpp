@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
-#include <opencv2/imgproc.hpp>
 
 #include "mrslam/fusion/ternary_image.h"
 
@@ -12,29 +12,40 @@ namespace mrslam::fusion {
 SimilarityIndex::SimilarityIndex(const cv::Mat& ternary_a, const cv::Mat& ternary_b,
                                  int max_free_points, double disagreement_weight)
     : disagreement_weight_(disagreement_weight) {
-  const cv::Mat kernel = cv::Mat::ones(3, 3, CV_8U);
-  cv::Mat occupied_a = ternary_a == kOccupiedCell, near_a;
-  cv::dilate(occupied_a, near_a, kernel);
-  lookup_a_ = ternary_a.clone();  // kUnknownCell/kFreeCell/kOccupiedCell equal our classes
-  lookup_a_.setTo(kNearOccupied, near_a & ~occupied_a);
+  // A's classes: its cell states, and kNearOccupied for a cell next to a wall.
+  lookup_a_.create(ternary_a.size(), CV_8U);
+  forEachRowWithWallsNear(ternary_a, [&](int y, const uint8_t* cells, const uint8_t* near) {
+    uint8_t* out = lookup_a_.ptr<uint8_t>(y);  // kUnknownCell/kFreeCell/kOccupiedCell equal our classes
+    for (int x = 0; x < ternary_a.cols; ++x)
+      out[x] = (near[x] & (cells[x] != kOccupiedCell)) ? static_cast<uint8_t>(kNearOccupied) : cells[x];
+  });
 
-  cv::Mat occupied_b = ternary_b == kOccupiedCell, near_b;
-  cv::dilate(occupied_b, near_b, kernel);
-  std::vector<cv::Point> cells;
-  cv::findNonZero(occupied_b, cells);
-  occupied_b_.reserve(cells.size());
-  for (const cv::Point& p : cells) occupied_b_.emplace_back(p.x + 0.5f, p.y + 0.5f);
-  const cv::Mat free_b = (ternary_b == kFreeCell) & ~near_b;
-  const size_t free_total = static_cast<size_t>(cv::countNonZero(free_b));
+  // B's walls, and its free cells clear of them (counted first: the subsample's stride needs
+  // their number), both in raster order.
+  std::vector<uint8_t> clear_free(static_cast<size_t>(ternary_b.cols));
+  auto markClearFree = [&](const uint8_t* cells, const uint8_t* near) {
+    for (int x = 0; x < ternary_b.cols; ++x) clear_free[x] = (cells[x] == kFreeCell) & !near[x];
+  };
+  size_t free_total = 0;
+  forEachRowWithWallsNear(ternary_b, [&](int y, const uint8_t* cells, const uint8_t* near) {
+    markClearFree(cells, near);
+    for (int x = 0; x < ternary_b.cols; ++x) free_total += clear_free[x];
+    // Walls are sparse: memchr finds the next one.
+    const uint8_t* const end = cells + ternary_b.cols;
+    for (const uint8_t* wall = cells;; ++wall) {
+      wall = static_cast<const uint8_t*>(std::memchr(wall, kOccupiedCell, end - wall));
+      if (!wall) break;
+      occupied_b_.emplace_back(static_cast<float>(wall - cells) + 0.5f, y + 0.5f);
+    }
+  });
   const size_t stride =
       max_free_points > 0 ? std::max<size_t>(1, (free_total + max_free_points - 1) / max_free_points) : 1;
   free_b_.reserve(free_total / stride + 1);
   size_t countdown = 1;  // keeps the 1st, (stride+1)th, ... free cell in raster order
-  for (int r = 0; r < free_b.rows; ++r) {
-    const uint8_t* f = free_b.ptr<uint8_t>(r);
-    for (int c = 0; c < free_b.cols; ++c)
-      if (f[c] && --countdown == 0) free_b_.emplace_back(c + 0.5f, r + 0.5f), countdown = stride;
-  }
+  forEachRowWithWallsNear(ternary_b, [&](int y, const uint8_t* cells, const uint8_t* near) {
+    markClearFree(cells, near);
+    keepEveryStrideth(clear_free.data(), ternary_b.cols, y, stride, countdown, free_b_);
+  });
   for (const auto& p : occupied_b_) center_b_ += cv::Point2d(p);
   if (!occupied_b_.empty()) center_b_ /= static_cast<double>(occupied_b_.size());
   free_weight_ = free_b_.empty() ? 0.0 : static_cast<double>(free_total) / free_b_.size();

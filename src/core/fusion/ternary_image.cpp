@@ -1,5 +1,6 @@
 #include "mrslam/fusion/ternary_image.h"
 
+#include <algorithm>
 #include <opencv2/imgproc.hpp>
 
 namespace mrslam::fusion {
@@ -54,6 +55,33 @@ cv::Mat downsampleTernary(const cv::Mat& ternary) {
   cv::Mat out;
   cv::max(columns[0], columns[1], out);
   return out;
+}
+
+int countCells(const cv::Mat& ternary, CellState state) {
+  int count = 0;
+  for (int y = 0; y < ternary.rows; ++y) {
+    const uint8_t* row = ternary.ptr<uint8_t>(y);
+    for (int x = 0; x < ternary.cols; ++x) count += row[x] == state;
+  }
+  return count;
+}
+
+void keepEveryStrideth(const uint8_t* marks, int cols, int y, size_t stride, size_t& countdown,
+                       std::vector<cv::Point2f>& out) {
+  // Whole chunks holding fewer flags than the countdown are only counted (a loop the compiler
+  // vectorises): with a stride of hundreds most of a row is skipped that way.
+  constexpr int kChunk = 64;
+  for (int x0 = 0; x0 < cols; x0 += kChunk) {
+    const int x1 = std::min(cols, x0 + kChunk);
+    unsigned flagged = 0;
+    for (int x = x0; x < x1; ++x) flagged += marks[x];
+    if (flagged < countdown) {
+      countdown -= flagged;
+      continue;
+    }
+    for (int x = x0; x < x1; ++x)
+      if (marks[x] && --countdown == 0) out.emplace_back(x + 0.5f, y + 0.5f), countdown = stride;
+  }
 }
 
 }  // namespace mrslam::fusion
