@@ -113,13 +113,7 @@ TEST(TernaryImage, KeepsEveryStridethFreeCellAndCountsCellsAsAWholeImageMaskDoes
   std::vector<cv::Point> all;
   cv::findNonZero(t == kFreeCell, all);  // raster order
   for (const size_t stride : {size_t{1}, size_t{7}, size_t{64}, size_t{200}, size_t{1000000}}) {
-    std::vector<cv::Point2f> kept;
-    size_t countdown = 1;
-    std::vector<uint8_t> marks(static_cast<size_t>(t.cols));
-    for (int y = 0; y < t.rows; ++y) {
-      for (int x = 0; x < t.cols; ++x) marks[x] = t.at<uint8_t>(y, x) == kFreeCell;
-      keepEveryStrideth(marks.data(), t.cols, y, stride, countdown, kept);
-    }
+    const std::vector<cv::Point2f> kept = everyStridethCell(t, kFreeCell, stride);
     ASSERT_EQ(kept.size(), (all.size() + stride - 1) / stride) << "stride " << stride;
     for (size_t k = 0; k < kept.size(); ++k)
       ASSERT_EQ(kept[k], cv::Point2f(all[k * stride].x + 0.5f, all[k * stride].y + 0.5f)) << "stride " << stride;

@@ -42,6 +42,9 @@ int countCells(const cv::Mat& ternary, CellState state);
 void keepEveryStrideth(const uint8_t* marks, int cols, int y, size_t stride, size_t& countdown,
                        std::vector<cv::Point2f>& out);
 
+// Centres of the 1st, (stride + 1)th, ... cell in `state`, in raster order.
+std::vector<cv::Point2f> everyStridethCell(const cv::Mat& ternary, CellState state, size_t stride);
+
 // Row by row, the cells with a wall in their 3 x 3 neighbourhood (themselves included), which
 // is the walls dilated by one cell (cv::dilate, 3 x 3 square), without the whole-image masks
 // that costs: on a 4000 x 4000 map each mask is 16 MB of fresh pages. Calls

@@ -76,23 +76,9 @@ ChamferPolish::ChamferPolish(const cv::Mat& ternary_a, const cv::Mat& ternary_b,
   squared_offsets_ = squaredWallOffsets(ternary_a, r);
   distance_of_code_ = distanceOfCode(r);
 
-  // Every stride-th of B's walls in raster order (counted first, without a whole-image mask).
-  std::vector<uint8_t> walls(static_cast<size_t>(ternary_b.cols));
-  auto markWalls = [&](int y) {
-    const uint8_t* row = ternary_b.ptr<uint8_t>(y);
-    for (int x = 0; x < ternary_b.cols; ++x) walls[x] = row[x] == kOccupiedCell;
-  };
-  size_t total = 0;
-  for (int y = 0; y < ternary_b.rows; ++y) {
-    markWalls(y);
-    for (int x = 0; x < ternary_b.cols; ++x) total += walls[x];
-  }
-  const size_t stride = std::max<size_t>(1, total / std::max(1, max_points));
-  size_t countdown = 1;
-  for (int y = 0; y < ternary_b.rows; ++y) {
-    markWalls(y);
-    keepEveryStrideth(walls.data(), ternary_b.cols, y, stride, countdown, walls_b_);
-  }
+  // Every stride-th of B's walls in raster order, at most about max_points of them.
+  const size_t walls = static_cast<size_t>(countCells(ternary_b, kOccupiedCell));
+  walls_b_ = everyStridethCell(ternary_b, kOccupiedCell, std::max<size_t>(1, walls / std::max(1, max_points)));
   for (const auto& p : walls_b_) centre_b_ += cv::Point2d(p);
   if (!walls_b_.empty()) centre_b_ /= static_cast<double>(walls_b_.size());
   for (auto& p : walls_b_) p -= cv::Point2f(centre_b_);

@@ -16,34 +16,13 @@ CellTransform inverse(const CellTransform& x) {
   return {-x.theta, {-(c * x.t.x + s * x.t.y), s * x.t.x - c * x.t.y}};
 }
 
-// Centres of the free cells of `ternary`, every stride-th in raster order so that at most
-// `max_points` are kept (counted first, without a whole-image mask).
-std::vector<cv::Point2f> freeCellCentres(const cv::Mat& ternary, size_t max_points) {
-  std::vector<uint8_t> free(static_cast<size_t>(ternary.cols));
-  auto markFree = [&](int r) {
-    const uint8_t* row = ternary.ptr<uint8_t>(r);
-    for (int c = 0; c < ternary.cols; ++c) free[c] = row[c] == kFreeCell;
-  };
-  size_t total = 0;
-  for (int r = 0; r < ternary.rows; ++r) {
-    markFree(r);
-    for (int c = 0; c < ternary.cols; ++c) total += free[c];
-  }
-  const size_t stride = total <= max_points ? 1 : (total + max_points - 1) / max_points;
-  std::vector<cv::Point2f> out;
-  out.reserve(total / stride + 1);
-  size_t countdown = 1;
-  for (int r = 0; r < ternary.rows; ++r) {
-    markFree(r);
-    keepEveryStrideth(free.data(), ternary.cols, r, stride, countdown, out);
-  }
-  return out;
-}
-
 }  // namespace
 
 SeeThroughCheck::Side SeeThroughCheck::makeSide(const cv::Mat& ternary) {
-  return {ternary, freeCellCentres(ternary, kMaxFreeCells)};
+  // Every stride-th free cell in raster order, so that at most kMaxFreeCells are kept.
+  const size_t total = static_cast<size_t>(countCells(ternary, kFreeCell));
+  const size_t stride = total <= kMaxFreeCells ? 1 : (total + kMaxFreeCells - 1) / kMaxFreeCells;
+  return {ternary, everyStridethCell(ternary, kFreeCell, stride)};
 }
 
 bool SeeThroughCheck::Side::wallNear(int x, int y) const {

@@ -84,4 +84,16 @@ void keepEveryStrideth(const uint8_t* marks, int cols, int y, size_t stride, siz
   }
 }
 
+std::vector<cv::Point2f> everyStridethCell(const cv::Mat& ternary, CellState state, size_t stride) {
+  std::vector<cv::Point2f> out;
+  std::vector<uint8_t> marks(static_cast<size_t>(ternary.cols));
+  size_t countdown = 1;
+  for (int y = 0; y < ternary.rows; ++y) {
+    const uint8_t* row = ternary.ptr<uint8_t>(y);
+    for (int x = 0; x < ternary.cols; ++x) marks[x] = row[x] == state;
+    keepEveryStrideth(marks.data(), ternary.cols, y, stride, countdown, out);
+  }
+  return out;
+}
+
 }  // namespace mrslam::fusion
