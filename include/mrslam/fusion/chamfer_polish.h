@@ -33,12 +33,13 @@ class ChamferPolish {
   double meanDistance(const CellTransform& transform) const;
 
  private:
+  // Bilinear read of A's wall distance at continuous cell coordinates; false off the map.
+  bool distanceAt(double x, double y, float& out) const;
+
   // A's distance transform: per cell the squared offset to its nearest wall, as a byte code,
   // and the distance (cells) each code stands for.
   cv::Mat squared_offsets_;
   std::array<float, 256> distance_of_code_;
-  // Bilinear read of that distance at continuous cell coordinates; false off the map.
-  bool distanceAt(double x, double y, float& out) const;
   std::vector<cv::Point2f> walls_b_;     // relative to their centroid
   cv::Point2d centre_b_;
   double truncation_;

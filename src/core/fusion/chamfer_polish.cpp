@@ -19,8 +19,8 @@ int reachCells(double reach) { return std::min(kMaxReachCells, static_cast<int>(
 // Per cell, the squared offset to the nearest wall within `r` cells along each axis. Only
 // distances below the reach are ever read, and walls are a few percent of the cells: each wall
 // stamps its neighbourhood (3 ms on a 1131 x 1068 ACES map, against 15 ms for
-// cv::distanceTransform over the whole image). Bytes rather than floats: a 4000 x 4000 map's image is 16 MB of
-// fresh pages instead of 64.
+// cv::distanceTransform over the whole image). Bytes rather than floats: a 4000 x 4000 map's
+// image is 16 MB of fresh pages instead of 64.
 cv::Mat squaredWallOffsets(const cv::Mat& ternary, int r) {
   cv::Mat codes(ternary.size(), CV_8U, cv::Scalar(kNoWallCode));
   const int side = 2 * r + 1;
