@@ -40,20 +40,19 @@ cv::Mat cannyEdges(const cv::Mat& ternary, const CannyParams& params) {
 }
 
 cv::Mat downsampleTernary(const cv::Mat& ternary) {
-  // The maximum of each 2 x 2 block (occupied > free > unknown), with whole-row vector
-  // operations: pad to even sides with unknown, take the max of each row pair (a row pair is
-  // one row of the image viewed with half the rows), then of each column pair (two channels).
-  cv::Mat even;
-  cv::copyMakeBorder(ternary, even, 0, ternary.rows % 2, 0, ternary.cols % 2, cv::BORDER_CONSTANT,
-                     cv::Scalar(kUnknownCell));
-  const int half_rows = even.rows / 2, cols = even.cols;
-  const cv::Mat row_pairs = even.reshape(1, half_rows);  // [row 2r | row 2r+1]
-  cv::Mat rows_max;
-  cv::max(row_pairs.colRange(0, cols), row_pairs.colRange(cols, 2 * cols), rows_max);
-  cv::Mat columns[2];
-  cv::split(rows_max.reshape(2, half_rows), columns);  // rows_max is continuous
-  cv::Mat out;
-  cv::max(columns[0], columns[1], out);
+  // The maximum of each 2 x 2 block (occupied > free > unknown); a last odd row or column makes
+  // half blocks. One pass with a row of scratch: the max of each row pair, then of each column
+  // pair (whole-image temporaries cost a large map fresh pages).
+  const int rows = (ternary.rows + 1) / 2, cols = (ternary.cols + 1) / 2;
+  cv::Mat out(rows, cols, CV_8U);
+  std::vector<uint8_t> row_pair_max(2 * static_cast<size_t>(cols), kUnknownCell);  // even width
+  for (int r = 0; r < rows; ++r) {
+    const uint8_t* top = ternary.ptr<uint8_t>(2 * r);
+    const uint8_t* bottom = 2 * r + 1 < ternary.rows ? ternary.ptr<uint8_t>(2 * r + 1) : top;
+    for (int c = 0; c < ternary.cols; ++c) row_pair_max[c] = std::max(top[c], bottom[c]);
+    uint8_t* block_max = out.ptr<uint8_t>(r);
+    for (int c = 0; c < cols; ++c) block_max[c] = std::max(row_pair_max[2 * c], row_pair_max[2 * c + 1]);
+  }
   return out;
 }
 
