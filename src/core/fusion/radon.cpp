@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "mrslam/fusion/ternary_image.h"
 
@@ -120,9 +121,14 @@ std::vector<double> globalRotationCandidates(const std::vector<cv::Point2f>& poi
 std::vector<cv::Point2f> occupiedPoints(const cv::Mat& ternary) {
   std::vector<cv::Point2f> points;
   for (int r = 0; r < ternary.rows; ++r) {
-    const uint8_t* row = ternary.ptr<uint8_t>(r);
-    for (int c = 0; c < ternary.cols; ++c)
-      if (row[c] == kOccupiedCell) points.emplace_back(c + 0.5f, r + 0.5f);
+    // Walls are sparse: memchr finds the next one.
+    const uint8_t* const row = ternary.ptr<uint8_t>(r);
+    const uint8_t* const end = row + ternary.cols;
+    for (const uint8_t* wall = row;; ++wall) {
+      wall = static_cast<const uint8_t*>(std::memchr(wall, kOccupiedCell, end - wall));
+      if (!wall) break;
+      points.emplace_back(static_cast<float>(wall - row) + 0.5f, r + 0.5f);
+    }
   }
   return points;
 }

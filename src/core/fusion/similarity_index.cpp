@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
+#include "mrslam/fusion/radon.h"
 #include "mrslam/fusion/ternary_image.h"
 
 namespace mrslam::fusion {
@@ -22,21 +22,15 @@ SimilarityIndex::SimilarityIndex(const cv::Mat& ternary_a, const cv::Mat& ternar
 
   // B's walls, and its free cells clear of them (counted first: the subsample's stride needs
   // their number), both in raster order.
+  occupied_b_ = occupiedPoints(ternary_b);
   std::vector<uint8_t> clear_free(static_cast<size_t>(ternary_b.cols));
   auto markClearFree = [&](const uint8_t* cells, const uint8_t* near) {
     for (int x = 0; x < ternary_b.cols; ++x) clear_free[x] = (cells[x] == kFreeCell) & !near[x];
   };
   size_t free_total = 0;
-  forEachRowWithWallsNear(ternary_b, [&](int y, const uint8_t* cells, const uint8_t* near) {
+  forEachRowWithWallsNear(ternary_b, [&](int /*y*/, const uint8_t* cells, const uint8_t* near) {
     markClearFree(cells, near);
     for (int x = 0; x < ternary_b.cols; ++x) free_total += clear_free[x];
-    // Walls are sparse: memchr finds the next one.
-    const uint8_t* const end = cells + ternary_b.cols;
-    for (const uint8_t* wall = cells;; ++wall) {
-      wall = static_cast<const uint8_t*>(std::memchr(wall, kOccupiedCell, end - wall));
-      if (!wall) break;
-      occupied_b_.emplace_back(static_cast<float>(wall - cells) + 0.5f, y + 0.5f);
-    }
   });
   const size_t stride =
       max_free_points > 0 ? std::max<size_t>(1, (free_total + max_free_points - 1) / max_free_points) : 1;
