@@ -571,6 +571,10 @@ class SlamNodelet : public nodelet::Nodelet {
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN, std::to_string(s.used - s.matched) + " of " +
                                                                   std::to_string(s.used) +
                                                                   " scans not matched: the track leans on odometry");
+    else if (s.scansOftenSeeLittle())
+      status.summary(diagnostic_msgs::DiagnosticStatus::WARN, std::to_string(s.few_returns) + " of " +
+                                                                  std::to_string(s.used) +
+                                                                  " scans saw too little to correct the predicted motion: the map may drift");
     else if (s.revisitsRarelyConfirmed())
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                      "back in mapped places " + std::to_string(s.loop_attempts) + " times, the scans agreed " +
@@ -599,6 +603,7 @@ class SlamNodelet : public nodelet::Nodelet {
     status.add("turns the odometry missed", s.odometry_missed_turns);
     status.add("turns the odometry may have missed (not followed)", s.odometry_turns_doubted);
     status.add("scans placed by the correlative search alone", s.seeds_alone);
+    status.add("scans with too few returns to correct the predicted motion", s.few_returns);
     status.add("correlative searches given up", s.searches_given_up);
     status.add("graph nodes", s.nodes);
     status.add("loop closures accepted", s.loop_accepted);

@@ -187,6 +187,10 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   else if (o.scan_matching && s.matchesOftenFailed())
     std::cerr << "mrslam_slam_log: WARNING: " << s.used - s.matched << " of " << s.used
               << " scans were not matched to the local map: the track leans on odometry there; check the map\n";
+  if (o.scan_matching && s.scansOftenSeeLittle())
+    std::cerr << "mrslam_slam_log: WARNING: " << s.few_returns << " of " << s.used
+              << " scans had too few returns to correct the predicted motion (a short laser in open space?): the"
+              << " map leans on the odometry there and may drift; check the map\n";
   if (s.revisitsRarelyConfirmed())
     std::cerr << "mrslam_slam_log: WARNING: the track came back to mapped places " << s.loop_attempts
               << " times and the scans agreed " << s.loop_accepted
@@ -319,7 +323,7 @@ int main(int argc, char** argv) {
     const slam::FrontEndStats s = robot.stats();
     const double duration = used.empty() ? 0 : used.back().stamp - used.front().stamp;
     std::cout << std::fixed << std::setprecision(1) << "scans " << s.used << " matched " << s.matched << " gated "
-              << s.gated << " odometry_jumps " << s.odometry_jumps << " loop_closures " << s.loop_accepted
+              << s.gated << " few_returns " << s.few_returns << " odometry_jumps " << s.odometry_jumps << " loop_closures " << s.loop_accepted
               << " tracking_s " << s.tracking_ms / 1000 << " loop_search_s " << s.loop_search_ms / 1000
               << " optimization_s " << s.optimization_ms / 1000 << " seconds " << std::setprecision(3) << seconds
               << " scans_per_s " << std::setprecision(1) << s.used / seconds << " log_s " << duration << " x_realtime "

@@ -30,6 +30,7 @@ void countStep(const ScanStep& step, FrontEndStats& stats) {
   stats.odometry_missed_turns += step.odometry_missed_turn;
   stats.odometry_turns_doubted += step.odometry_turn_doubted;
   stats.seeds_alone += step.seed_alone;
+  stats.few_returns += step.few_returns;
   stats.searches_given_up += step.searches_given_up;
   stats.gyro_set_aside += step.gyro_set_aside;
   if (!step.gyro_problem.empty()) stats.gyro_problem = step.gyro_problem;

@@ -270,6 +270,7 @@ ScanStep LocalTracker::track(const LaserScan& scan) {
     const Points2 points = sp.enabled ? thinPoints(scanPoints(scan, laser_in_base_), sp.resolution) : Points2{};
     // Too few returns to tell a wrong fit from the right one: the odometry stands, whatever fits.
     const bool can_overrule = points.size() >= static_cast<size_t>(std::max(0, sp.overrule_min_points));
+    step.few_returns = sp.enabled && !can_overrule;
     if (scans_ > 0 && odometry_available_ && !step.odometry_doubted && can_overrule) {
       // Some odometry reports speed without its sign (every backward step of the bundled
       // CARMEN logs is written as forward motion): the scan decides the direction.
