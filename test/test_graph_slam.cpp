@@ -1375,6 +1375,11 @@ TEST(LogWriters, DecimatedLogsKeepTheFullLogsOdometryAndRoundTrip) {
   EXPECT_NEAR(read_back.back().x, kept.back().x, 1e-3);
   EXPECT_NEAR(read_back.back().yaw, kept.back().yaw, 1e-4);
   EXPECT_EQ(back.records[3].scan.ranges, every5.records[3].scan.ranges);
+  // A short laser's "no return" is written as its maximum range and must read back as none.
+  writeCarmenLog(test::shortLaser(every5, 4.0f), path);
+  const RobotLog short_back = readRobotLog(path);
+  ASSERT_EQ(short_back.records.size(), every5.records.size());
+  EXPECT_FLOAT_EQ(short_back.records[3].scan.range_max, 4.0f);
   EXPECT_THROW(decimate(log, 0), LogError);
   EXPECT_THROW(decimate(log, 5, 5), LogError);
   const RobotLog phase2 = decimate(log, 5, 2);  // scans 2, 7, 12, ...

@@ -53,6 +53,12 @@ void writeCarmenLog(const RobotLog& log, const std::string& path) {
   FILE* f = file.get();
   std::fprintf(f, "# written by mrslam from %s (%zu scans)\n", log.path.c_str(), log.records.size());
   std::fprintf(f, "PARAM robot_frontlaser_offset %.6f nohost 0\n", log.laser_in_base.x);
+  // "No return" is written as the laser's maximum range below; without this line a reader takes
+  // its default (50 m) and a short laser's no-returns for walls that far out.
+  if (!log.records.empty()) {
+    const double range_max = log.records.front().scan.range_max;
+    if (range_max > 1.0 && range_max < 1000.0) std::fprintf(f, "PARAM robot_front_laser_max %.3f nohost 0\n", range_max);
+  }
   Pose2D anchor;
   for (size_t k = 0; k < log.records.size(); ++k) {
     const LogRecord& r = log.records[k];
