@@ -572,9 +572,9 @@ class SlamNodelet : public nodelet::Nodelet {
                                                                   std::to_string(s.used) +
                                                                   " scans not matched: the track leans on odometry");
     else if (s.scansOftenSeeLittle())
-      status.summary(diagnostic_msgs::DiagnosticStatus::WARN, std::to_string(s.few_returns) + " of " +
-                                                                  std::to_string(s.used) +
-                                                                  " scans saw too little to correct the predicted motion: the map may drift");
+      status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                     std::to_string(s.few_returns) + " of " + std::to_string(s.used) +
+                         " scans saw too little to correct the predicted motion: the map may drift");
     else if (s.revisitsRarelyConfirmed())
       status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                      "back in mapped places " + std::to_string(s.loop_attempts) + " times, the scans agreed " +

@@ -323,7 +323,8 @@ int main(int argc, char** argv) {
     const slam::FrontEndStats s = robot.stats();
     const double duration = used.empty() ? 0 : used.back().stamp - used.front().stamp;
     std::cout << std::fixed << std::setprecision(1) << "scans " << s.used << " matched " << s.matched << " gated "
-              << s.gated << " few_returns " << s.few_returns << " odometry_jumps " << s.odometry_jumps << " loop_closures " << s.loop_accepted
+              << s.gated << " few_returns " << s.few_returns << " odometry_jumps " << s.odometry_jumps
+              << " loop_closures " << s.loop_accepted
               << " tracking_s " << s.tracking_ms / 1000 << " loop_search_s " << s.loop_search_ms / 1000
               << " optimization_s " << s.optimization_ms / 1000 << " seconds " << std::setprecision(3) << seconds
               << " scans_per_s " << std::setprecision(1) << s.used / seconds << " log_s " << duration << " x_realtime "

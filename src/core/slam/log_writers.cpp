@@ -54,7 +54,7 @@ void writeCarmenLog(const RobotLog& log, const std::string& path) {
   std::fprintf(f, "# written by mrslam from %s (%zu scans)\n", log.path.c_str(), log.records.size());
   std::fprintf(f, "PARAM robot_frontlaser_offset %.6f nohost 0\n", log.laser_in_base.x);
   // "No return" is written as the laser's maximum range below; without this line a reader takes
-  // its default (50 m) and a short laser's no-returns for walls that far out.
+  // its default (50 m) and reads a short laser's no-returns as walls at its maximum range.
   if (!log.records.empty()) {
     const double range_max = log.records.front().scan.range_max;
     if (range_max > 1.0 && range_max < 1000.0) std::fprintf(f, "PARAM robot_front_laser_max %.3f nohost 0\n", range_max);
