@@ -190,7 +190,7 @@ void printSummary(const Options& o, const slam::FrontEnd& robot, size_t scans_in
   if (o.scan_matching && s.scansOftenSeeLittle())
     std::cerr << "mrslam_slam_log: WARNING: " << s.few_returns << " of " << s.used
               << " scans had too few returns to correct the predicted motion (a short laser in open space?): the"
-              << " map leans on the odometry there and may drift; check the map\n";
+              << " map follows the prediction there and may drift; check the map\n";
   if (s.revisitsRarelyConfirmed())
     std::cerr << "mrslam_slam_log: WARNING: the track came back to mapped places " << s.loop_attempts
               << " times and the scans agreed " << s.loop_accepted
