@@ -43,6 +43,9 @@ struct RobotLog {
 RobotLog readRobotLog(const std::string& path);
 
 RobotLog readCarmenLog(const std::string& path);
+// Whether a CARMEN log's laser maximum (PARAM robot_front_laser_max, m) is one the reader takes:
+// the line is written by the tools below and read back by readCarmenLog.
+inline bool plausibleCarmenLaserMax(double range) { return range > 1.0 && range < 1000.0; }
 RobotLog readMinesLog(const std::string& path);
 RobotLog readMrptRawlog(const std::string& path);
 

@@ -7,6 +7,7 @@
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/serialization/CArchive.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdio>
 #include <memory>
@@ -53,12 +54,13 @@ void writeCarmenLog(const RobotLog& log, const std::string& path) {
   FILE* f = file.get();
   std::fprintf(f, "# written by mrslam from %s (%zu scans)\n", log.path.c_str(), log.records.size());
   std::fprintf(f, "PARAM robot_frontlaser_offset %.6f nohost 0\n", log.laser_in_base.x);
-  // "No return" is written as the laser's maximum range below; without this line a reader takes
-  // its default (50 m) and reads a short laser's no-returns as walls at its maximum range.
-  if (!log.records.empty()) {
-    const double range_max = log.records.front().scan.range_max;
-    if (range_max > 1.0 && range_max < 1000.0) std::fprintf(f, "PARAM robot_front_laser_max %.3f nohost 0\n", range_max);
-  }
+  // "No return" is written as the laser's maximum range, and this line says which range that is:
+  // without it a reader takes its default (50 m) and reads a short laser's no-returns as walls at
+  // its maximum range. One line for the log: the largest maximum of its scans.
+  double range_max = 0.0;
+  for (const LogRecord& r : log.records) range_max = std::max(range_max, r.scan.range_max);
+  const bool declared = plausibleCarmenLaserMax(range_max);
+  if (declared) std::fprintf(f, "PARAM robot_front_laser_max %.3f nohost 0\n", range_max);
   Pose2D anchor;
   for (size_t k = 0; k < log.records.size(); ++k) {
     const LogRecord& r = log.records[k];
@@ -71,7 +73,12 @@ void writeCarmenLog(const RobotLog& log, const std::string& path) {
     }
     const Pose2D& p = r.has_reference ? r.reference : Pose2D{};
     std::fprintf(f, "FLASER %zu", r.scan.ranges.size());
-    for (float range : r.scan.ranges) std::fprintf(f, " %.3f", std::isfinite(range) ? range : r.scan.range_max);
+    // A no-return must read back as one: at or beyond the declared maximum.
+    const double limit = declared ? range_max : r.scan.range_max;
+    for (float range : r.scan.ranges) {
+      const bool rewrite = !std::isfinite(range) || (isNoReturn(r.scan, range) && range < limit);
+      std::fprintf(f, " %.3f", rewrite ? limit : range);
+    }
     std::fprintf(f, " %.6f %.6f %.6f %.6f %.6f %.6f %.6f nohost %.6f\n", p.x, p.y, p.yaw, p.x, p.y, p.yaw, t, t);
     anchor = p;
     if (log.has_odometry) std::fprintf(f, "ODOM %.6f %.6f %.6f 0 0 0 0 nohost %.6f\n", anchor.x, anchor.y, anchor.yaw, t);

@@ -53,7 +53,7 @@ bool parseLaserMax(const std::string& line, double& range_max) {
   std::string name;
   double value = 0;
   if (!(in >> name >> value) || name.find("front_laser_max") == std::string::npos) return false;
-  if (!(value > 1.0 && value < 1000.0)) return false;
+  if (!plausibleCarmenLaserMax(value)) return false;
   range_max = value;
   return true;
 }
