@@ -14,6 +14,7 @@ std::vector<uint8_t> compressCells(const int8_t* cells, size_t count, int level)
   if (compress2(out.data(), &size, reinterpret_cast<const Bytef*>(cells), static_cast<uLong>(count), level) != Z_OK)
     throw std::runtime_error("zlib could not compress the grid");
   out.resize(size);
+  out.shrink_to_fit();  // resize keeps compressBound's capacity, about the cells' own size
   return out;
 }
 
