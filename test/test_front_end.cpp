@@ -444,9 +444,9 @@ TEST(GridMapper, TheKnownWindowHoldsEveryKnownCellAndNoUnknownMargin) {
   EXPECT_TRUE(row_known(0) && row_known(window.height - 1) && col_known(0) && col_known(window.width - 1));
 }
 
-// A finished submap holds its cells once, in its export; moved by the graph, it is drawn again
-// and holds them once again.
-TEST(Submap, AFinishedSubmapHoldsItsCellsOnlyInItsExport) {
+// A finished submap holds its cells once, packed; moved by the graph, it is drawn again and
+// holds them packed once again.
+TEST(Submap, AFinishedSubmapHoldsItsCellsOnlyPacked) {
   const RobotLog& log = intelLog();
   Submap submap(0, GridMapperParams{}, log.laser_in_base, 0.05);
   std::vector<Pose2D> poses;
@@ -458,15 +458,29 @@ TEST(Submap, AFinishedSubmapHoldsItsCellsOnlyInItsExport) {
   }
   const std::shared_ptr<const OccupancyGrid> drawing = submap.grid();
   EXPECT_GT(submap.gridBytes(), 2 * drawing->data.size());  // the mapper's cells and the export
+  EXPECT_FALSE(submap.part(Pose2D{}).packed);
   submap.finish(1.0);
-  EXPECT_EQ(submap.grid(), drawing);  // unchanged cells are not exported again
-  EXPECT_EQ(submap.gridBytes(), drawing->data.size() + 1);  // the mapper keeps one cell
+  const MapPart part = submap.part(Pose2D{});
+  ASSERT_TRUE(part.packed);
+  EXPECT_FALSE(part.grid);
+  const OccupancyGrid unpacked = part.packed->unpack();
+  EXPECT_EQ(unpacked.data, drawing->data);
+  EXPECT_EQ(unpacked.width, drawing->width);
+  EXPECT_EQ(unpacked.height, drawing->height);
+  EXPECT_EQ(unpacked.origin.x, drawing->origin.x);
+  EXPECT_EQ(unpacked.origin.y, drawing->origin.y);
+  EXPECT_EQ(submap.grid()->data, drawing->data);
+  std::printf("three Intel scans: %zu cells packed in %zu bytes\n", drawing->data.size(), part.packed->bytes());
+  EXPECT_EQ(submap.gridBytes(), part.packed->bytes() + 1);  // the mapper keeps one cell
+  EXPECT_LT(submap.gridBytes(), drawing->data.size() / 4);
   poses[2].yaw += 0.1;  // an optimisation turned the last node
   ASSERT_TRUE(submap.follow(poses, 0.05, 0.0087));
-  const std::shared_ptr<const OccupancyGrid> redrawn = submap.grid();
-  EXPECT_NE(redrawn, drawing);
-  EXPECT_NE(redrawn->data, drawing->data);
-  EXPECT_EQ(submap.gridBytes(), redrawn->data.size() + 1);
+  const MapPart moved = submap.part(Pose2D{});
+  ASSERT_TRUE(moved.packed);
+  EXPECT_NE(moved.packed, part.packed);
+  const OccupancyGrid redrawn = moved.packed->unpack();
+  EXPECT_NE(redrawn.data, drawing->data);
+  EXPECT_EQ(submap.gridBytes(), moved.packed->bytes() + 1);
 }
 
 TEST(EkfFrontEnd, IntelExcerptTracksTheReferenceAndIgnoresBadScans) {

@@ -10,15 +10,22 @@
 #include <vector>
 
 #include "mrslam/grid.h"
+#include "mrslam/packed_grid.h"
 
 namespace mrslam::fusion {
 
 struct PlacedGrid {
-  const OccupancyGrid* grid;
+  const OccupancyGrid* grid;  // nullptr when `packed` holds the grid
   Pose2D pose;  // pose of this grid's map frame in the reference map frame
+  // A packed grid is unpacked when the merge reaches its first row and dropped after its last,
+  // so a map of many packed pieces never holds them all unpacked at once.
+  const PackedGrid* packed = nullptr;
 };
 
 // The merged grid at the reference's resolution and orientation, covering all inputs.
 OccupancyGrid mergeGrids(const OccupancyGrid& reference, const std::vector<PlacedGrid>& others);
+// The same with the reference a piece like the others: the first, whose pose must be the
+// identity, gives the lattice.
+OccupancyGrid mergeGrids(const std::vector<PlacedGrid>& pieces);
 
 }  // namespace mrslam::fusion

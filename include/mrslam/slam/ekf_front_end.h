@@ -23,7 +23,7 @@ class EkfFrontEnd : public FrontEnd {
   Eigen::Matrix3d covariance() const override { return tracker_.filter().covariance(); }
   std::vector<Pose2D> trajectory() const override { return trajectory_; }
   std::vector<MapPart> mapParts() const override {
-    return {{std::make_shared<const OccupancyGrid>(mapper_.toGrid()), Pose2D{}}};
+    return {{std::make_shared<const OccupancyGrid>(mapper_.toGrid()), Pose2D{}, nullptr}};
   }
   uint64_t mapVersion() const override { return mapper_.version(); }
   FrontEndStats stats() const override { return stats_; }

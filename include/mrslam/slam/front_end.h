@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "mrslam/grid.h"
+#include "mrslam/packed_grid.h"
 #include "mrslam/slam/ekf2d.h"
 #include "mrslam/slam/grid_mapper.h"
 #include "mrslam/slam/gyro_check.h"
@@ -217,8 +218,9 @@ struct RobotSlamParams {
 // A piece of the robot's map and where it sits in the map frame. Pieces are never modified once
 // handed out, so a map can be composed from them without holding the front end.
 struct MapPart {
-  std::shared_ptr<const OccupancyGrid> grid;
+  std::shared_ptr<const OccupancyGrid> grid;  // the piece's cells, or
   Pose2D pose;  // of the piece's frame in the map frame
+  std::shared_ptr<const PackedGrid> packed;  // ...packed (a finished submap), unpacked while composed
 };
 
 // The map from its pieces (log-odds sum, fusion/grid_merge.h), in the first piece's lattice;

@@ -12,18 +12,34 @@ namespace {
 // at once (MIT's infinite corridor, 5357 x 5096 cells: 136 MB beside the 27 MB result).
 constexpr int kBandRows = 256;
 
+const OccupancyGrid& geometryOf(const PlacedGrid& p) { return p.grid ? *p.grid : p.packed->geometry(); }
+
 // One input grid and where it lands in the output: its cells are read through an affine map
 // from output cell centres (the output's grid frame, metres) to its own cell coordinates.
 struct Footprint {
-  const OccupancyGrid* grid = nullptr;
+  const PlacedGrid* piece = nullptr;
+  const OccupancyGrid* grid = nullptr;  // the cells; a packed piece's only while they are read
+  OccupancyGrid unpacked;
   double c = 0, s = 0, tx = 0, ty = 0;
   int col0 = 0, col1 = -1, row0 = 0, row1 = -1;  // output cells under its bounding box
+
+  void load() {
+    if (grid) return;
+    unpacked = piece->packed->unpack();
+    grid = &unpacked;
+  }
+  void drop() {
+    if (!piece->packed) return;
+    unpacked = OccupancyGrid{};
+    grid = nullptr;
+  }
 };
 
 Footprint footprintOf(const PlacedGrid& p, const OccupancyGrid& out) {
-  const OccupancyGrid& g = *p.grid;
+  const OccupancyGrid& g = geometryOf(p);
   Footprint f;
-  f.grid = &g;
+  f.piece = &p;
+  f.grid = p.grid;
   const Pose2D out_to_g = g.origin.inverse().compose(p.pose.inverse()).compose(out.origin);
   f.c = std::cos(out_to_g.yaw) / g.resolution, f.s = std::sin(out_to_g.yaw) / g.resolution;
   f.tx = out_to_g.x / g.resolution, f.ty = out_to_g.y / g.resolution;
@@ -65,13 +81,20 @@ void accumulate(const Footprint& f, const OccupancyGrid& out, int band0, int ban
 OccupancyGrid mergeGrids(const OccupancyGrid& reference, const std::vector<PlacedGrid>& others) {
   std::vector<PlacedGrid> all{{&reference, Pose2D{}}};
   all.insert(all.end(), others.begin(), others.end());
+  return mergeGrids(all);
+}
+
+OccupancyGrid mergeGrids(const std::vector<PlacedGrid>& all) {
+  if (all.empty()) return OccupancyGrid{};
+  const OccupancyGrid& reference = geometryOf(all.front());
 
   // Bounding box of every grid's corners in the reference grid frame (metres).
   const Pose2D to_ref_grid = reference.origin.inverse();
   double min_x = std::numeric_limits<double>::max(), min_y = min_x, max_x = -min_x, max_y = -min_x;
   for (const PlacedGrid& p : all) {
-    const Pose2D grid_in_ref = to_ref_grid.compose(p.pose).compose(p.grid->origin);
-    const double w = p.grid->width * p.grid->resolution, h = p.grid->height * p.grid->resolution;
+    const OccupancyGrid& g = geometryOf(p);
+    const Pose2D grid_in_ref = to_ref_grid.compose(p.pose).compose(g.origin);
+    const double w = g.width * g.resolution, h = g.height * g.resolution;
     for (const auto& [cx, cy] : {std::pair{0.0, 0.0}, {w, 0.0}, {0.0, h}, {w, h}}) {
       double x, y;
       grid_in_ref.apply(cx, cy, x, y);
@@ -103,7 +126,12 @@ OccupancyGrid mergeGrids(const OccupancyGrid& reference, const std::vector<Place
     const int band1 = std::min(out.height, band0 + kBandRows);
     std::fill(log_odds.begin(), log_odds.end(), 0.0f);
     std::fill(known.begin(), known.end(), uint8_t{0});
-    for (const Footprint& f : footprints) accumulate(f, out, band0, band1, lut, log_odds, known);
+    for (Footprint& f : footprints) {
+      if (f.row1 < band0 || f.row0 >= band1 || f.col1 < f.col0) continue;
+      f.load();
+      accumulate(f, out, band0, band1, lut, log_odds, known);
+      if (f.row1 < band1) f.drop();  // its last band
+    }
     int8_t* cells = out.data.data() + static_cast<size_t>(band0) * out.width;
     for (size_t i = 0; i < static_cast<size_t>(band1 - band0) * out.width; ++i)
       cells[i] = known[i] ? static_cast<int8_t>(std::lround(100.0 / (1.0 + std::exp(-log_odds[i]))))

@@ -6,10 +6,11 @@ namespace mrslam::slam {
 
 OccupancyGrid composeMap(const std::vector<MapPart>& parts) {
   if (parts.empty()) return OccupancyGrid{};
-  if (parts.size() == 1) return *parts.front().grid;
+  if (parts.size() == 1) return parts.front().grid ? *parts.front().grid : parts.front().packed->unpack();
   std::vector<fusion::PlacedGrid> placed;
-  for (size_t i = 1; i < parts.size(); ++i) placed.push_back({parts[i].grid.get(), parts[i].pose});
-  return fusion::mergeGrids(*parts.front().grid, placed);
+  for (const MapPart& part : parts) placed.push_back({part.grid.get(), part.pose, part.packed.get()});
+  placed.front().pose = Pose2D{};  // the map frame, by this function's contract
+  return fusion::mergeGrids(placed);
 }
 
 void countStep(const ScanStep& step, FrontEndStats& stats) {

@@ -471,7 +471,7 @@ std::vector<Pose2D> GraphSlam::trajectory() const {
 std::vector<MapPart> GraphSlam::mapParts() const {
   // The first submap's anchor is node 0, which the optimiser holds at the map frame's origin.
   std::vector<MapPart> parts;
-  for (const auto& s : submaps_) parts.push_back({s->grid(), poses_[s->anchor()]});
+  for (const auto& s : submaps_) parts.push_back(s->part(poses_[s->anchor()]));
   return parts;
 }
 

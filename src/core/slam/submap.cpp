@@ -28,6 +28,7 @@ bool Submap::follow(const std::vector<Pose2D>& node_poses, double xy, double yaw
     return std::hypot(shift.x, shift.y) > xy || std::abs(shift.yaw) > yaw;
   });
   if (!moved) return false;
+  packed_.reset();
   mapper_.clear();
   for (Drawn& d : scans_) {
     d.pose = now(d);
@@ -59,6 +60,7 @@ void Submap::poseCircle(double& cx, double& cy, double& radius) const {
 }
 
 std::shared_ptr<const OccupancyGrid> Submap::grid() const {
+  if (packed_) return std::make_shared<const OccupancyGrid>(packed_->unpack());
   if (grid_version_ != mapper_.version()) {
     grid_ = std::make_shared<const OccupancyGrid>(mapper_.toKnownGrid());
     grid_version_ = mapper_.version();
@@ -66,13 +68,20 @@ std::shared_ptr<const OccupancyGrid> Submap::grid() const {
   return grid_;
 }
 
+MapPart Submap::part(const Pose2D& anchor_pose) const {
+  if (packed_) return {nullptr, anchor_pose, packed_};
+  return {grid(), anchor_pose, nullptr};
+}
+
 size_t Submap::gridBytes() const {
   const GridGeometry g = mapper_.geometry();
-  return static_cast<size_t>(g.width) * g.height + (grid_ ? grid_->data.size() : 0);
+  return static_cast<size_t>(g.width) * g.height + (grid_ ? grid_->data.size() : 0) + (packed_ ? packed_->bytes() : 0);
 }
 
 void Submap::freeze() {
-  grid();
+  packed_ = std::make_shared<const PackedGrid>(*grid());
+  grid_.reset();
+  grid_version_ = ~0ull;
   mapper_.release();
 }
 
