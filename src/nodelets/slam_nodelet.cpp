@@ -61,6 +61,7 @@
 #include "mrslam/scan_stamp_gate.h"
 #include "mrslam/slam/front_end.h"
 #include "mrslam/slam/gyro_buffer.h"
+#include "mrslam/slam/map_composer.h"
 #include "mrslam/slam/sensor_mount.h"
 #include "mrslam/slam/simulated_gyro.h"
 #include "guarded_tf_listener.h"
@@ -526,9 +527,12 @@ class SlamNodelet : public nodelet::Nodelet {
     publishTrajectory(trajectory, stamps);
     if (!map_changed) return;
     auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
-    OccupancyGrid composed = slam::composeMap(parts);
-    std::swap(composed.data, grid->data);  // the cells move into the message, no copy
-    gridToMsg(composed, map_frame_, stamp, *grid, /*with_data=*/false);
+    {
+      std::lock_guard<std::mutex> compose_lock(compose_mutex_);
+      const OccupancyGrid& composed = composer_.compose(parts);
+      grid->data = composed.data;  // a copy: the composer keeps its map to merge only what changes
+      gridToMsg(composed, map_frame_, stamp, *grid, /*with_data=*/false);
+    }
     metadata_pub_.publish(grid->info);
     map_pub_.publish(nav_msgs::OccupancyGridConstPtr(grid));  // never modified after this line
     std::lock_guard<std::mutex> lock(mutex_);
@@ -661,6 +665,8 @@ class SlamNodelet : public nodelet::Nodelet {
   std::mutex waiting_mutex_;
   std::mutex mutex_;
   std::mutex input_mutex_;
+  std::mutex compose_mutex_;
+  slam::MapComposer composer_;  // compose_mutex_
   std::deque<WaitingScan> waiting_;  // waiting_mutex_
   std::atomic<bool> scans_waiting_{false};
   double imu_wait_ = 0.5;            // s (wall)

@@ -7,6 +7,8 @@
 // "we do not know" rather than one map overriding the other.
 #pragma once
 
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "mrslam/grid.h"
@@ -27,5 +29,16 @@ OccupancyGrid mergeGrids(const OccupancyGrid& reference, const std::vector<Place
 // The same with the reference a piece like the others: the first, whose pose must be the
 // identity, gives the lattice.
 OccupancyGrid mergeGrids(const std::vector<PlacedGrid>& pieces);
+
+// The steps of mergeGrids, for a caller that merges a changing set of pieces again and again
+// (slam::MapComposer): the merged grid's lattice and extent (no cells); the rows of that grid a
+// piece's cells can reach, first to last (first > last: none); and the merge itself, done
+// again only in the rows flagged in `redo` (one flag a row of `out`, whose cells must be sized
+// to its extent), leaving every other cell as it is. A row's cells depend on nothing but the
+// pieces that reach it, so redoing the rows that changed pieces reach gives the whole merge's
+// cells exactly. Returns the count of rows merged.
+OccupancyGrid mergedExtent(const std::vector<PlacedGrid>& pieces);
+std::pair<int, int> rowsReached(const PlacedGrid& piece, const OccupancyGrid& extent);
+int mergeRowsInto(const std::vector<PlacedGrid>& pieces, OccupancyGrid& out, const std::vector<uint8_t>& redo);
 
 }  // namespace mrslam::fusion

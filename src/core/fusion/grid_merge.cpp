@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace mrslam::fusion {
 
@@ -85,6 +86,13 @@ OccupancyGrid mergeGrids(const OccupancyGrid& reference, const std::vector<Place
 }
 
 OccupancyGrid mergeGrids(const std::vector<PlacedGrid>& all) {
+  OccupancyGrid out = mergedExtent(all);
+  out.data.resize(static_cast<size_t>(out.width) * out.height);
+  mergeRowsInto(all, out, std::vector<uint8_t>(static_cast<size_t>(out.height), 1));
+  return out;
+}
+
+OccupancyGrid mergedExtent(const std::vector<PlacedGrid>& all) {
   if (all.empty()) return OccupancyGrid{};
   const OccupancyGrid& reference = geometryOf(all.front());
 
@@ -110,8 +118,19 @@ OccupancyGrid mergeGrids(const std::vector<PlacedGrid>& all) {
   out.width = static_cast<int>(std::ceil(max_x / res)) - c0;
   out.height = static_cast<int>(std::ceil(max_y / res)) - r0;
   out.origin = reference.origin.compose(Pose2D{c0 * res, r0 * res, 0.0});
-  out.data.resize(static_cast<size_t>(out.width) * out.height);
+  return out;
+}
 
+std::pair<int, int> rowsReached(const PlacedGrid& piece, const OccupancyGrid& extent) {
+  const Footprint f = footprintOf(piece, extent);
+  if (f.col1 < f.col0) return {0, -1};
+  return {f.row0, f.row1};
+}
+
+int mergeRowsInto(const std::vector<PlacedGrid>& all, OccupancyGrid& out, const std::vector<uint8_t>& redo) {
+  if (redo.size() != static_cast<size_t>(std::max(out.height, 0)) ||
+      out.data.size() != static_cast<size_t>(std::max(out.width, 0)) * redo.size())
+    throw std::invalid_argument("mergeRowsInto: one flag a row and the cells of the extent are needed");
   float lut[101];
   for (int v = 0; v <= 100; ++v) {
     const double p = std::clamp(v / 100.0, 0.02, 0.98);
@@ -122,11 +141,18 @@ OccupancyGrid mergeGrids(const std::vector<PlacedGrid>& all) {
   const size_t band_cells = static_cast<size_t>(out.width) * std::min(kBandRows, out.height);
   std::vector<float> log_odds(band_cells);
   std::vector<uint8_t> known(band_cells);
-  for (int band0 = 0; band0 < out.height; band0 += kBandRows) {
-    const int band1 = std::min(out.height, band0 + kBandRows);
+  int merged = 0;
+  // Bands of up to kBandRows flagged rows in a row, bottom to top (all rows flagged: the bands
+  // of a whole merge).
+  for (int band0 = 0, band1 = 0; band0 < out.height; band0 = band1) {
+    band1 = band0 + 1;
+    if (!redo[static_cast<size_t>(band0)]) continue;
+    while (band1 < out.height && band1 - band0 < kBandRows && redo[static_cast<size_t>(band1)]) ++band1;
+    merged += band1 - band0;
     std::fill(log_odds.begin(), log_odds.end(), 0.0f);
     std::fill(known.begin(), known.end(), uint8_t{0});
     for (Footprint& f : footprints) {
+      if (f.row1 < band0) f.drop();  // past its last band (bands skipped since may have held it)
       if (f.row1 < band0 || f.row0 >= band1 || f.col1 < f.col0) continue;
       f.load();
       accumulate(f, out, band0, band1, lut, log_odds, known);
@@ -137,7 +163,7 @@ OccupancyGrid mergeGrids(const std::vector<PlacedGrid>& all) {
       cells[i] = known[i] ? static_cast<int8_t>(std::lround(100.0 / (1.0 + std::exp(-log_odds[i]))))
                           : OccupancyGrid::kUnknown;
   }
-  return out;
+  return merged;
 }
 
 }  // namespace mrslam::fusion
