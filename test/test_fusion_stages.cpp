@@ -452,40 +452,6 @@ TEST(GridMerge, MapsTallerThanOneBandMergeCellForCell) {
   EXPECT_GT(both, 50000u);  // 68 662 cells both maps know
 }
 
-// The merge walks each row only over the columns where a rotated grid can lie. At every
-// heading, every cell of the merge is the one a walk over the whole bounding box reads: the
-// piece's cell under the output cell's centre, if any (a small reference of one cell of
-// unknown pins the output's lattice).
-TEST(GridMerge, ARotatedPieceIsReadAtEveryCellItCovers) {
-  const OccupancyGrid piece = bench::cropGrid(intel(), 100, 200, 300, 180);
-  OccupancyGrid reference;
-  reference.width = reference.height = 1;
-  reference.resolution = piece.resolution;
-  reference.data.assign(1, OccupancyGrid::kUnknown);
-  auto logitBack = [](int v) {
-    const double p = std::clamp(v / 100.0, 0.02, 0.98);
-    const float l = static_cast<float>(std::log(p / (1.0 - p)));
-    return static_cast<int8_t>(std::lround(100.0 / (1.0 + std::exp(-l))));
-  };
-  size_t covered = 0;
-  for (int k = 0; k < 24; ++k) {
-    const Pose2D pose{1.3, -0.7, -M_PI + k * (2 * M_PI / 24) + 0.01};
-    const OccupancyGrid merged = mergeGrids(reference, {{&piece, pose}});
-    const Pose2D out_to_piece = piece.origin.inverse().compose(pose.inverse()).compose(merged.origin);
-    for (int r = 0; r < merged.height; ++r)
-      for (int c = 0; c < merged.width; ++c) {
-        double gx, gy;
-        out_to_piece.apply((c + 0.5) * piece.resolution, (r + 0.5) * piece.resolution, gx, gy);
-        gx /= piece.resolution, gy /= piece.resolution;
-        const bool inside = gx >= 0 && gy >= 0 && gx < piece.width && gy < piece.height;
-        const int v = inside ? piece.at(static_cast<int>(gx), static_cast<int>(gy)) : -1;
-        ASSERT_EQ(merged.at(c, r), v < 0 ? OccupancyGrid::kUnknown : logitBack(v)) << "heading " << k << " cell " << c << "," << r;
-        covered += v >= 0;
-      }
-  }
-  EXPECT_GT(covered, 24u * 20000);
-}
-
 TEST(GridMerge, PlacesPiecesBackWhereTheyCameFrom) {
   const OccupancyGrid left = bench::cropGrid(intel(), 0, 0, 450, 761);
   const OccupancyGrid right_original = bench::cropGrid(intel(), 400, 0, 414, 761);

@@ -57,23 +57,6 @@ Footprint footprintOf(const PlacedGrid& p, const OccupancyGrid& out) {
   return f;
 }
 
-// Narrows [lo, hi] to the columns col where a * col + b may lie in [0, size), give or take a
-// column: the caller still tests every cell, so rounding here can only cost a cell's test.
-void clipColumns(double a, double b, int size, int& lo, int& hi) {
-  if (std::abs(a) < 1e-12) {
-    if (b < 0 || b >= size) hi = lo - 1;
-    return;
-  }
-  double from = (0 - b) / a, to = (size - b) / a;
-  if (from > to) std::swap(from, to);
-  if (!(from <= hi + 1.0) || !(to >= lo - 1.0)) {  // also a NaN: nothing
-    hi = lo - 1;
-    return;
-  }
-  lo = std::max(lo, static_cast<int>(std::floor(from)) - 1);
-  hi = std::min(hi, static_cast<int>(std::ceil(to)) + 1);
-}
-
 // Adds the grid's known cells under output rows [band0, band1) to the band's sums.
 void accumulate(const Footprint& f, const OccupancyGrid& out, int band0, int band1, const float* lut,
                 std::vector<float>& log_odds, std::vector<uint8_t>& known) {
@@ -81,12 +64,7 @@ void accumulate(const Footprint& f, const OccupancyGrid& out, int band0, int ban
   const double res = out.resolution;
   for (int r = std::max(f.row0, band0); r <= std::min(f.row1, band1 - 1); ++r) {
     const double y = (r + 0.5) * res;
-    // A rotated grid covers half of its bounding box or less: walk only the columns of this row
-    // that fall inside it (gx and gy are linear in col).
-    int col0 = f.col0, col1 = f.col1;
-    clipColumns(f.c * res, f.c * 0.5 * res - f.s * y + f.tx, g.width, col0, col1);
-    clipColumns(f.s * res, f.s * 0.5 * res + f.c * y + f.ty, g.height, col0, col1);
-    for (int col = col0; col <= col1; ++col) {
+    for (int col = f.col0; col <= f.col1; ++col) {
       const double x = (col + 0.5) * res;
       const double gx = f.c * x - f.s * y + f.tx, gy = f.s * x + f.c * y + f.ty;
       if (gx < 0 || gy < 0 || gx >= g.width || gy >= g.height) continue;
