@@ -224,7 +224,7 @@ struct MapPart {
 };
 
 // The map from its pieces (log-odds sum, fusion/grid_merge.h), in the first piece's lattice;
-// the first piece's frame must be the map frame.
+// the first piece's frame must be the map frame. Defined beside MapComposer (map_composer.cpp).
 OccupancyGrid composeMap(const std::vector<MapPart>& parts);
 
 struct ScanStep {

@@ -20,7 +20,6 @@ class MapComposer {
   const OccupancyGrid& compose(const std::vector<MapPart>& parts);
   // Rows merged by the last call (of map().height).
   int rowsMerged() const { return rows_merged_; }
-  const OccupancyGrid& map() const { return map_; }
 
  private:
   std::vector<MapPart> last_parts_;  // held, so that no new piece can reuse an old one's address

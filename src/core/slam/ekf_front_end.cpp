@@ -1,17 +1,6 @@
 #include "mrslam/slam/ekf_front_end.h"
 
-#include "mrslam/fusion/grid_merge.h"
-
 namespace mrslam::slam {
-
-OccupancyGrid composeMap(const std::vector<MapPart>& parts) {
-  if (parts.empty()) return OccupancyGrid{};
-  if (parts.size() == 1) return parts.front().grid ? *parts.front().grid : parts.front().packed->unpack();
-  std::vector<fusion::PlacedGrid> placed;
-  for (const MapPart& part : parts) placed.push_back({part.grid.get(), part.pose, part.packed.get()});
-  placed.front().pose = Pose2D{};  // the map frame, by this function's contract
-  return fusion::mergeGrids(placed);
-}
 
 void countStep(const ScanStep& step, FrontEndStats& stats) {
   ++stats.scans;

@@ -20,7 +20,7 @@ bool sameExtent(const OccupancyGrid& a, const OccupancyGrid& b) {
 std::vector<fusion::PlacedGrid> placedOf(const std::vector<MapPart>& parts) {
   std::vector<fusion::PlacedGrid> placed;
   for (const MapPart& part : parts) placed.push_back({part.grid.get(), part.pose, part.packed.get()});
-  placed.front().pose = Pose2D{};  // the map frame, as composeMap takes it
+  placed.front().pose = Pose2D{};  // the first piece's frame is the map frame, by composeMap's contract
   return placed;
 }
 
@@ -37,6 +37,12 @@ void flagRowsOfChanged(const std::vector<MapPart>& parts, const std::vector<MapP
 
 }  // namespace
 
+OccupancyGrid composeMap(const std::vector<MapPart>& parts) {
+  if (parts.empty()) return OccupancyGrid{};
+  if (parts.size() == 1) return parts.front().grid ? *parts.front().grid : parts.front().packed->unpack();
+  return fusion::mergeGrids(placedOf(parts));
+}
+
 const OccupancyGrid& MapComposer::compose(const std::vector<MapPart>& parts) {
   if (parts.size() <= 1) {  // composeMap hands a lone piece back as it is
     map_ = composeMap(parts);
@@ -46,9 +52,9 @@ const OccupancyGrid& MapComposer::compose(const std::vector<MapPart>& parts) {
   }
   const std::vector<fusion::PlacedGrid> placed = placedOf(parts);
   OccupancyGrid extent = fusion::mergedExtent(placed);
-  const bool same_lattice = last_parts_.size() > 1 && samePiece(parts.front(), last_parts_.front());
   std::vector<uint8_t> redo(static_cast<size_t>(std::max(extent.height, 0)), 1);
-  if (same_lattice && sameExtent(extent, map_)) {
+  // The extent's origin is the lattice: the same extent, the same cells to merge into.
+  if (last_parts_.size() > 1 && sameExtent(extent, map_)) {
     std::fill(redo.begin(), redo.end(), uint8_t{0});
     flagRowsOfChanged(parts, last_parts_, extent, redo);
     flagRowsOfChanged(last_parts_, parts, extent, redo);
